@@ -1,0 +1,79 @@
+#include "support/xsens_reader.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+namespace imucal::test {
+
+std::string find_xsens_dir() {
+  const char* env = std::getenv("IMUCAL_XSENS_DIR");
+  for (const std::string& dir : {std::string(env ? env : ""), std::string("../shared/data/xsens")}) {
+    if (dir.empty()) continue;
+    std::ifstream probe(dir + "/xsens_acc.mat");
+    if (probe.good()) return dir;
+  }
+  return {};
+}
+
+bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& error) {
+  std::ifstream in(path);
+  if (!in) {
+    error = path + ": cannot open";
+    return false;
+  }
+  std::string line;
+  std::size_t lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::istringstream ss(line);
+    Sample s{};
+    if (!(ss >> s.t >> s.v(0) >> s.v(1) >> s.v(2))) {
+      error = path + ":" + std::to_string(lineno) + ": expected 4 numbers";
+      return false;
+    }
+    out.push_back(s);
+  }
+  return true;
+}
+
+std::vector<Interval> detect_still(const std::vector<Sample>& acc, double init_seconds, double k,
+                                   int half_window, std::size_t trim, std::size_t min_samples) {
+  auto variance_norm = [&](std::size_t b, std::size_t e) {
+    Vector3<double> m = Vector3<double>::Zero(), q = Vector3<double>::Zero();
+    for (std::size_t i = b; i < e; ++i) {
+      m += acc[i].v;
+      q += acc[i].v.cwiseProduct(acc[i].v);
+    }
+    const double n = static_cast<double>(e - b);
+    m /= n;
+    return (q / n - m.cwiseProduct(m)).norm();
+  };
+  std::size_t init_end = 0;
+  while (init_end < acc.size() && acc[init_end].t - acc[0].t < init_seconds) ++init_end;
+  const double threshold = k * variance_norm(0, init_end);
+
+  const std::size_t w = static_cast<std::size_t>(half_window);
+  std::vector<bool> still(acc.size(), false);
+  for (std::size_t i = 0; i < init_end; ++i) still[i] = true;
+  for (std::size_t i = w; i + w < acc.size(); ++i) {
+    if (i >= init_end) still[i] = variance_norm(i - w, i + w + 1) < threshold;
+  }
+  std::vector<Interval> out;
+  std::size_t i = 0;
+  while (i < acc.size()) {
+    if (!still[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < acc.size() && still[j]) ++j;
+    if (j - i >= min_samples + 2 * trim) out.push_back({i + trim, j - trim});
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace imucal::test

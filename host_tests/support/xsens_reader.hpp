@@ -1,0 +1,35 @@
+// Test support (host only): reads the imu_tk `t x y z` text format of the xsens recording, and
+// finds still intervals offline (imu_tk's rule: variance over a centred window against k times
+// the initial rest). A stand-in until the streaming detector exists; not library code.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "imucal/accel_model.hpp"
+
+namespace imucal::test {
+
+struct Sample {
+  double t;
+  Vector3<double> v;
+};
+
+struct Interval {
+  std::size_t begin;  // first sample
+  std::size_t end;    // one past the last sample
+};
+
+// The recording's folder: $IMUCAL_XSENS_DIR, else ../shared/data/xsens. Empty if absent.
+std::string find_xsens_dir();
+
+// False (with a message) on a missing file or a malformed line.
+bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& error);
+
+// Still intervals: window of +-half_window samples, threshold k times the variance norm over the
+// first init_seconds, `trim` samples cut from both ends, runs then shorter than min_samples
+// dropped, the initial rest included.
+std::vector<Interval> detect_still(const std::vector<Sample>& acc, double init_seconds, double k,
+                                   int half_window, std::size_t trim, std::size_t min_samples);
+
+}  // namespace imucal::test

@@ -1,0 +1,293 @@
+// Accelerometer calibration against a simulator with known truth: the closed-form start, the
+// LM estimate within 3 sigma, sigma that matches the real scatter, float against double, and a
+// specific status for every kind of degenerate input.
+#include <gtest/gtest.h>
+
+#include "support/gtest_status.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "imucal/accel_calibration.hpp"
+#include "support/sim_poses.hpp"
+
+namespace imucal {
+namespace {
+
+using test::DoubleStore;
+using test::simulate_poses;
+using test::to_float;
+
+const char* const kNames[kAccelParams] = {"alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y",
+                                          "s_z",      "b_x",      "b_y",      "b_z"};
+
+template <typename Scalar>
+AccelSettings<Scalar> settings_for(double gravity) {
+  AccelSettings<Scalar> s;
+  s.gravity = static_cast<Scalar>(gravity);
+  return s;
+}
+
+template <typename Scalar>
+void expect_no_nan(const AccelCalibration<Scalar>& c) {
+  EXPECT_TRUE(c.params.allFinite());
+  EXPECT_TRUE(c.sigma.allFinite());
+  EXPECT_TRUE(std::isfinite(c.residual_rms));
+}
+
+TEST(AccelCalibration, NoiseFreePosesGiveTheTruthExactly) {
+  for (const auto& spec : {sim::AccelSensorSpec::si(), sim::AccelSensorSpec::raw_counts()}) {
+    sim::AccelSensorSpec clean = spec;
+    clean.noise = 0.0;
+    sim::Random rng(21);
+    const sim::AccelTruth truth = sim::draw_accel_truth(clean, rng);
+    DoubleStore poses;
+    for (int i = 0; i < 20; ++i)
+      poses.add(sim::raw_from_calibrated(truth, truth.gravity * sim::random_direction(rng)), 100);
+
+    // The closed-form fit alone is already exact on noise-free data.
+    Vector3<double> centre;
+    double scale = 0;
+    ASSERT_EQ(check_poses(poses.span(), settings_for<double>(truth.gravity), centre, scale),
+              Status::kOk);
+    AccelVector<double> pn;
+    ASSERT_EQ(fit_ellipsoid(poses.span(), centre, scale, pn), Status::kOk);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(pn(i), truth.params(i), 1e-9);
+      EXPECT_NEAR(pn(kScaleX + i) * truth.gravity / scale, truth.params(kScaleX + i),
+                  1e-9 * truth.params(kScaleX + i));
+      EXPECT_NEAR(scale * pn(kBiasX + i) - centre(i), truth.params(kBiasX + i),
+                  1e-9 * (std::abs(truth.params(kBiasX + i)) + 1));
+    }
+    AccelCalibration<double> out;
+    const Status s = calibrate_accelerometer(poses.span(), settings_for<double>(truth.gravity), out);
+    ASSERT_TRUE(succeeded(s)) << to_string(s);
+    for (int k = 0; k < kAccelParams; ++k)
+      EXPECT_NEAR(out.params(k), truth.params(k), 1e-8 * (std::abs(truth.params(k)) + 1e-3))
+          << kNames[k];
+    EXPECT_LT(out.residual_rms, 1e-9);
+  }
+}
+
+template <typename Scalar>
+void expect_within_three_sigma(const sim::AccelSensorSpec& spec, std::uint64_t seed) {
+  const test::SimulatedPoses sim = simulate_poses(spec, seed);
+  AccelCalibration<Scalar> out;
+  Status s;
+  if constexpr (sizeof(Scalar) == sizeof(float)) {
+    const test::FloatStore fposes = to_float(sim.poses);
+    s = calibrate_accelerometer(fposes.span(), settings_for<Scalar>(sim.truth.gravity), out);
+  } else {
+    s = calibrate_accelerometer(sim.poses.span(), settings_for<Scalar>(sim.truth.gravity), out);
+  }
+  ASSERT_TRUE(succeeded(s)) << to_string(s);
+  expect_no_nan(out);
+  for (int k = 0; k < kAccelParams; ++k) {
+    const double err = static_cast<double>(out.params(k)) - sim.truth.params(k);
+    const double sigma = static_cast<double>(out.sigma(k));
+    EXPECT_GT(sigma, 0.0) << kNames[k];
+    EXPECT_LT(std::abs(err), 3.0 * sigma) << kNames[k] << " error " << err << " sigma " << sigma;
+  }
+  // The pose residual is at the level of the noise on a pose mean (sensor noise / sqrt(~275)).
+  const double noise_ms2 = spec.noise * spec.nominal_scale / std::sqrt(275.0);
+  EXPECT_LT(static_cast<double>(out.residual_rms), 2.0 * noise_ms2);
+}
+
+TEST(AccelCalibration, WithinThreeSigmaSiUnitsDouble) { expect_within_three_sigma<double>(sim::AccelSensorSpec::si(), 101); }
+TEST(AccelCalibration, WithinThreeSigmaRawCountsDouble) { expect_within_three_sigma<double>(sim::AccelSensorSpec::raw_counts(), 102); }
+TEST(AccelCalibration, WithinThreeSigmaSiUnitsFloat) { expect_within_three_sigma<float>(sim::AccelSensorSpec::si(), 103); }
+TEST(AccelCalibration, WithinThreeSigmaRawCountsFloat) { expect_within_three_sigma<float>(sim::AccelSensorSpec::raw_counts(), 104); }
+
+// One seed can pass by luck; over 40 simulated recordings the z-scores (error / sigma) must have
+// RMS near 1 for every parameter: sigma neither flatters nor hides the real scatter. With 40
+// runs and 21 degrees of freedom the RMS has a 3-sigma band of about 0.65..1.35.
+TEST(AccelCalibration, SigmaMatchesTheScatterOverManyRecordings) {
+  for (const auto& spec : {sim::AccelSensorSpec::si(), sim::AccelSensorSpec::raw_counts()}) {
+    constexpr int kRuns = 40;
+    AccelVector<double> sum_z2 = AccelVector<double>::Zero();
+    double worst = 0.0;
+    for (int run = 0; run < kRuns; ++run) {
+      const test::SimulatedPoses sim = simulate_poses(spec, 1000 + static_cast<std::uint64_t>(run));
+      AccelCalibration<double> out;
+      const Status s = calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), out);
+      ASSERT_TRUE(succeeded(s)) << to_string(s) << " run " << run;
+      const AccelVector<double> z = (out.params - sim.truth.params).cwiseQuotient(out.sigma);
+      sum_z2 += z.cwiseProduct(z);
+      worst = std::max(worst, z.cwiseAbs().maxCoeff());
+    }
+    for (int k = 0; k < kAccelParams; ++k) {
+      const double rms = std::sqrt(sum_z2(k) / kRuns);
+      EXPECT_GT(rms, 0.65) << kNames[k];
+      EXPECT_LT(rms, 1.35) << kNames[k];
+    }
+    EXPECT_LT(worst, 4.5);
+  }
+}
+
+// The device path (float) against the reference (double) on the same data: every parameter
+// within 0.1 sigma, in SI units and in raw 16-bit counts (~33000, bias ~ -32768).
+TEST(AccelCalibration, FloatAgreesWithDoubleWithinATenthOfSigma) {
+  for (const auto& spec : {sim::AccelSensorSpec::si(), sim::AccelSensorSpec::raw_counts()}) {
+    for (std::uint64_t seed = 200; seed < 210; ++seed) {
+      const test::SimulatedPoses sim = simulate_poses(spec, seed, 40);
+      const test::FloatStore fposes = to_float(sim.poses);
+      AccelCalibration<double> d;
+      AccelCalibration<float> f;
+      ASSERT_TRUE(succeeded(calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), d)));
+      const Status fs = calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), f);
+      ASSERT_TRUE(succeeded(fs)) << to_string(fs) << " seed " << seed;
+      for (int k = 0; k < kAccelParams; ++k) {
+        const double diff = std::abs(static_cast<double>(f.params(k)) - d.params(k));
+        EXPECT_LT(diff, 0.1 * d.sigma(k)) << kNames[k] << " seed " << seed << " float "
+                                         << f.params(k) << " double " << d.params(k);
+        EXPECT_NEAR(static_cast<double>(f.sigma(k)), d.sigma(k), 0.05 * d.sigma(k)) << kNames[k];
+      }
+    }
+  }
+}
+
+TEST(AccelCalibration, TimeSlicedSolveEqualsTheOneShotSolve) {
+  const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::raw_counts(), 300);
+  const test::FloatStore fposes = to_float(sim.poses);
+  AccelCalibration<float> whole;
+  const Status ws = calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), whole);
+  ASSERT_TRUE(succeeded(ws));
+
+  AccelSolver<float> solver(settings_for<float>(sim.truth.gravity));
+  Status s = solver.start(fposes.span());
+  int slices = 0;
+  while (s == Status::kRunning) {
+    s = solver.step();
+    ++slices;
+    ASSERT_LE(slices, 50);
+  }
+  AccelCalibration<float> sliced;
+  EXPECT_EQ(solver.finish(sliced), ws);
+  EXPECT_EQ(sliced.params, whole.params);
+  EXPECT_EQ(sliced.iterations, slices);
+  EXPECT_GE(slices, 1);
+}
+
+// --- Degenerate input: a specific status, never a NaN. ---
+
+template <typename Store>
+AccelCalibration<double> expect_status(const Store& poses, Status expected) {
+  AccelCalibration<double> out;
+  const Status s = calibrate_accelerometer(poses.span(), settings_for<double>(9.80665), out);
+  EXPECT_EQ(s, expected) << "got: " << to_string(s);
+  EXPECT_EQ(out.status, expected);
+  expect_no_nan(out);
+  return out;
+}
+
+TEST(AccelDegenerate, FewerThanNinePoses) {
+  const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 400, 8);
+  expect_status(sim.poses, Status::kTooFewPoses);
+  DoubleStore empty;
+  expect_status(empty, Status::kTooFewPoses);
+}
+
+TEST(AccelDegenerate, AllPosesInOnePlane) {
+  // Turned about one horizontal axis only: gravity sweeps a great circle.
+  sim::Random rng(401);
+  const sim::AccelTruth truth = sim::draw_accel_truth(sim::AccelSensorSpec::si(), rng);
+  Vector3<double> dirs[12];
+  for (int i = 0; i < 12; ++i) {
+    const double a = 0.5236 * i;
+    dirs[i] = Vector3<double>(std::cos(a), 0.0, std::sin(a));
+  }
+  expect_status(test::poses_from_directions(truth, sim::AccelSensorSpec::si(), dirs, 402),
+                Status::kPosesCoplanar);
+
+  // Turned about a tilted axis: gravity sweeps a small circle (a cone), still one plane.
+  const Vector3<double> axis = Vector3<double>(1.0, 2.0, 3.0).normalized();
+  const Vector3<double> e1 = axis.unitOrthogonal();
+  const Vector3<double> e2 = axis.cross(e1);
+  for (int i = 0; i < 12; ++i) {
+    const double a = 0.5236 * i;
+    dirs[i] = (0.6 * axis + 0.8 * (std::cos(a) * e1 + std::sin(a) * e2)).normalized();
+  }
+  expect_status(test::poses_from_directions(truth, sim::AccelSensorSpec::si(), dirs, 403),
+                Status::kPosesCoplanar);
+}
+
+TEST(AccelDegenerate, TwoConesAboutOneAxisAreNotObservable) {
+  // Not coplanar, but two circles on the sphere do not pin down an ellipsoid.
+  sim::Random rng(410);
+  const sim::AccelTruth truth = sim::draw_accel_truth(sim::AccelSensorSpec::si(), rng);
+  Vector3<double> dirs[16];
+  for (int i = 0; i < 16; ++i) {
+    const double a = 0.7854 * (i % 8);
+    const double z = i < 8 ? 0.5 : -0.3;
+    const double r = std::sqrt(1 - z * z);
+    dirs[i] = Vector3<double>(r * std::cos(a), r * std::sin(a), z);
+  }
+  AccelCalibration<double> out;
+  const Status s = calibrate_accelerometer(
+      test::poses_from_directions(truth, sim::AccelSensorSpec::si(), dirs, 411).span(),
+      settings_for<double>(truth.gravity), out);
+  EXPECT_FALSE(succeeded(s)) << to_string(s);
+  EXPECT_TRUE(s == Status::kIllConditioned || s == Status::kRankDeficient ||
+              s == Status::kNotAnEllipsoid || s == Status::kUnobservable)
+      << to_string(s);
+  expect_no_nan(out);
+}
+
+TEST(AccelDegenerate, DuplicatePoses) {
+  // Twelve poses but only six directions (each held twice): too few distinct directions.
+  const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 420, 6);
+  DoubleStore doubled;
+  for (int rep = 0; rep < 2; ++rep)
+    for (int i = 0; i < sim.poses.size(); ++i)
+      doubled.add(sim.poses[i].mean, sim.poses[i].samples);
+  expect_status(doubled, Status::kTooFewDistinctPoses);
+  // All the same direction.
+  DoubleStore same;
+  for (int i = 0; i < 12; ++i) same.add(Vector3<double>(0.1, 0.2, 9.8), 100);
+  expect_status(same, Status::kTooFewDistinctPoses);
+}
+
+TEST(AccelDegenerate, NonFiniteReadingsAreRefusedAndNothingIsLost) {
+  const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 430, 12);
+  DoubleStore store = sim.poses;
+  EXPECT_EQ(store.add(Vector3<double>(NAN, 0, 9.8), 100), Status::kNonFiniteInput);
+  EXPECT_EQ(store.add(Vector3<double>(0, INFINITY, 9.8), 100), Status::kNonFiniteInput);
+  EXPECT_EQ(store.add(Vector3<double>(0, 0, 9.8), 0), Status::kInvalidArgument);
+  EXPECT_EQ(store.size(), 12);
+  AccelCalibration<double> out;
+  EXPECT_TRUE(succeeded(calibrate_accelerometer(store.span(), settings_for<double>(sim.truth.gravity), out)));
+
+  // Poses that bypass the store (a caller's own array) are checked by the solver as well.
+  Pose<double> raw[12];
+  for (int i = 0; i < 12; ++i) raw[i] = store[i];
+  raw[5].mean(2) = NAN;
+  EXPECT_EQ(calibrate_accelerometer(PoseSpan<double>{raw, 12}, settings_for<double>(9.8), out),
+            Status::kNonFiniteInput);
+  raw[5].mean(2) = -INFINITY;
+  EXPECT_EQ(calibrate_accelerometer(PoseSpan<double>{raw, 12}, settings_for<double>(9.8), out),
+            Status::kNonFiniteInput);
+  expect_no_nan(out);
+}
+
+TEST(AccelDegenerate, FullStoreRefusesAndKeepsWhatItHas) {
+  PoseStore<float, 9> store;
+  for (int i = 0; i < 9; ++i) ASSERT_EQ(store.add(Vector3<float>(1.0f * float(i), 0, 0), 10), Status::kOk);
+  EXPECT_TRUE(store.full());
+  EXPECT_EQ(store.add(Vector3<float>(99, 0, 0), 10), Status::kCapacityExceeded);
+  EXPECT_EQ(store.size(), 9);
+  EXPECT_EQ(store[8].mean(0), 8.0f);
+}
+
+TEST(AccelDegenerate, BadSettings) {
+  const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 440, 12);
+  AccelSettings<double> s;
+  s.gravity = -1.0;
+  AccelCalibration<double> out;
+  EXPECT_EQ(calibrate_accelerometer(sim.poses.span(), s, out), Status::kInvalidArgument);
+  s.gravity = NAN;
+  EXPECT_EQ(calibrate_accelerometer(sim.poses.span(), s, out), Status::kInvalidArgument);
+  expect_no_nan(out);
+}
+
+}  // namespace
+}  // namespace imucal

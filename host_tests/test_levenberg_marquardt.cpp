@@ -1,0 +1,111 @@
+// The LM driver on problems with known minima: convergence, time slicing, stopping reasons.
+#include <gtest/gtest.h>
+
+#include "support/gtest_status.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "imucal/levenberg_marquardt.hpp"
+
+namespace imucal {
+namespace {
+
+// Rosenbrock as least squares: r1 = 10 (y - x^2), r2 = 1 - x. Minimum at (1, 1), f = 0.
+struct Rosenbrock {
+  template <typename Scalar>
+  Status accumulate(const Eigen::Matrix<Scalar, 2, 1>& p, NormalEquations<Scalar, 2>& ne) const {
+    Status s = ne.add(Eigen::Matrix<Scalar, 2, 1>(Scalar(-20) * p(0), Scalar(10)),
+                      Scalar(10) * (p(1) - p(0) * p(0)));
+    if (s != Status::kOk) return s;
+    return ne.add(Eigen::Matrix<Scalar, 2, 1>(Scalar(-1), Scalar(0)), Scalar(1) - p(0));
+  }
+};
+
+// Exponential decay y = A exp(-k t) + noise-free data: a small-residual fit with a unique minimum.
+struct ExpDecay {
+  Status accumulate(const Eigen::Vector2d& p, NormalEquations<double, 2>& ne) const {
+    for (int i = 0; i < 20; ++i) {
+      const double t = 0.25 * i;
+      const double y = 3.0 * std::exp(-0.7 * t) + 0.01 * std::sin(5.0 * i);
+      const double m = p(0) * std::exp(-p(1) * t);
+      const Status s = ne.add(Eigen::Vector2d(std::exp(-p(1) * t), -t * m), m - y);
+      if (s != Status::kOk) return s;
+    }
+    return Status::kOk;
+  }
+};
+
+// A problem whose residuals turn NaN for x > 2: the driver must reject such steps.
+struct NanBeyondTwo {
+  Status accumulate(const Eigen::Matrix<double, 1, 1>& p, NormalEquations<double, 1>& ne) const {
+    const double e = p(0) > 2.0 ? std::numeric_limits<double>::quiet_NaN() : p(0) - 5.0;
+    return ne.add(Eigen::Matrix<double, 1, 1>(1.0), e);
+  }
+};
+
+TEST(LevenbergMarquardt, SolvesRosenbrockInDoubleAndFloat) {
+  LevenbergMarquardt<double, 2> lm;
+  EXPECT_TRUE(succeeded(lm.run(Rosenbrock{}, Eigen::Vector2d(-1.2, 1.0))));
+  EXPECT_NEAR(lm.parameters()(0), 1.0, 1e-8);
+  EXPECT_NEAR(lm.parameters()(1), 1.0, 1e-8);
+
+  LevenbergMarquardt<float, 2> lmf;
+  EXPECT_TRUE(succeeded(lmf.run(Rosenbrock{}, Eigen::Vector2f(-1.2f, 1.0f))));
+  EXPECT_NEAR(lmf.parameters()(0), 1.0f, 1e-3f);
+  EXPECT_NEAR(lmf.parameters()(1), 1.0f, 2e-3f);
+}
+
+TEST(LevenbergMarquardt, TimeSlicedStepsGiveTheSameAnswer) {
+  LevenbergMarquardt<double, 2> whole;
+  const Status final_status = whole.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1));
+  ASSERT_TRUE(succeeded(final_status)) << to_string(final_status);
+
+  LevenbergMarquardt<double, 2> sliced;
+  Status s = sliced.start(ExpDecay{}, Eigen::Vector2d(1.0, 0.1));
+  int calls = 0;
+  while (s == Status::kRunning) {
+    s = sliced.step(ExpDecay{});
+    ++calls;
+    ASSERT_LE(calls, sliced.settings().max_iterations);
+  }
+  EXPECT_EQ(s, final_status);
+  EXPECT_EQ(calls, sliced.iterations());
+  EXPECT_EQ(sliced.parameters(), whole.parameters());
+  EXPECT_NEAR(sliced.parameters()(0), 3.0, 0.02);
+  EXPECT_NEAR(sliced.parameters()(1), 0.7, 0.01);
+  // Further calls after the end change nothing and repeat the reason.
+  EXPECT_EQ(sliced.step(ExpDecay{}), final_status);
+  EXPECT_EQ(sliced.iterations(), calls);
+}
+
+TEST(LevenbergMarquardt, StoppingReasons) {
+  LevenbergMarquardt<double, 2> not_started;
+  EXPECT_EQ(not_started.step(ExpDecay{}), Status::kNotStarted);
+
+  LmSettings<double> one;
+  one.max_iterations = 1;
+  LevenbergMarquardt<double, 2> capped(one);
+  EXPECT_EQ(capped.run(Rosenbrock{}, Eigen::Vector2d(-1.2, 1.0)), Status::kMaxIterations);
+  EXPECT_TRUE(capped.parameters().allFinite());
+
+  LevenbergMarquardt<double, 2> bad_start;
+  EXPECT_EQ(bad_start.run(Rosenbrock{}, Eigen::Vector2d(NAN, 1.0)), Status::kNonFiniteInput);
+
+  LmSettings<double> bad;
+  bad.initial_lambda = -1.0;
+  LevenbergMarquardt<double, 2> bad_settings(bad);
+  EXPECT_EQ(bad_settings.run(Rosenbrock{}, Eigen::Vector2d(0, 0)), Status::kInvalidArgument);
+}
+
+TEST(LevenbergMarquardt, NeverAcceptsAStepIntoNaN) {
+  LevenbergMarquardt<double, 1> lm;
+  const Status s = lm.run(NanBeyondTwo{}, Eigen::Matrix<double, 1, 1>(0.0));
+  EXPECT_FALSE(succeeded(s)) << to_string(s);
+  EXPECT_TRUE(std::isfinite(lm.parameters()(0)));
+  EXPECT_LE(lm.parameters()(0), 2.0);
+  EXPECT_TRUE(std::isfinite(lm.normal_equations().weighted_sse()));
+}
+
+}  // namespace
+}  // namespace imucal

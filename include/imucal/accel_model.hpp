@@ -1,0 +1,80 @@
+// imucal/accel_model.hpp: the accelerometer model of Tedaldi et al. (ICRA 2014) in the seed's
+// convention, its gravity-norm residual and the seed's analytic Jacobian.
+//
+//   a_cal = T K (a_raw + b),  T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]],  K = diag(s)
+//
+// The bias b is ADDED to the raw reading (imu_tk and x-io Fusion subtract an offset: offset = -b).
+// Parameter order: [a_yz, a_zy, a_zx, s_x, s_y, s_z, b_x, b_y, b_z]. Header-only, no allocation.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace imucal {
+
+enum AccelIndex : int {
+  kAlphaYz = 0,
+  kAlphaZy = 1,
+  kAlphaZx = 2,
+  kScaleX = 3,
+  kScaleY = 4,
+  kScaleZ = 5,
+  kBiasX = 6,
+  kBiasY = 7,
+  kBiasZ = 8,
+  kAccelParams = 9,
+};
+
+template <typename Scalar>
+using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+template <typename Scalar>
+using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+template <typename Scalar>
+using AccelVector = Eigen::Matrix<Scalar, kAccelParams, 1>;
+
+// T K: the upper-triangular matrix of the model.
+template <typename Scalar>
+Matrix3<Scalar> accel_matrix(const AccelVector<Scalar>& p) {
+  Matrix3<Scalar> m;
+  m << p(kScaleX), -p(kAlphaYz) * p(kScaleY), p(kAlphaZy) * p(kScaleZ),  //
+      Scalar(0), p(kScaleY), -p(kAlphaZx) * p(kScaleZ),                   //
+      Scalar(0), Scalar(0), p(kScaleZ);
+  return m;
+}
+
+template <typename Scalar>
+Vector3<Scalar> accel_apply(const AccelVector<Scalar>& p, const Vector3<Scalar>& raw) {
+  const Vector3<Scalar> b(p(kBiasX), p(kBiasY), p(kBiasZ));
+  return accel_matrix(p) * (raw + b);
+}
+
+// e = |g|^2 - |T K (a + b)|^2 and its analytic Jacobian row (the seed's derivation):
+// with u = K (a + b) and c = T u, de/dp = -2 c . dc/dp.
+template <typename Scalar>
+Scalar accel_residual(const AccelVector<Scalar>& p, const Vector3<Scalar>& a, Scalar g,
+                      AccelVector<Scalar>* jacobian = nullptr) {
+  const Scalar ax = a(0) + p(kBiasX), ay = a(1) + p(kBiasY), az = a(2) + p(kBiasZ);
+  const Scalar ux = p(kScaleX) * ax, uy = p(kScaleY) * ay, uz = p(kScaleZ) * az;
+  const Scalar cx = ux - p(kAlphaYz) * uy + p(kAlphaZy) * uz;
+  const Scalar cy = uy - p(kAlphaZx) * uz;
+  const Scalar cz = uz;
+  if (jacobian != nullptr) {
+    AccelVector<Scalar>& j = *jacobian;
+    const Scalar m2 = Scalar(-2);
+    j(kAlphaYz) = m2 * cx * -uy;
+    j(kAlphaZy) = m2 * cx * uz;
+    j(kAlphaZx) = m2 * cy * -uz;
+    // dc/ds_x = T (a_x + b_x, 0, 0) = (a_x + b_x, 0, 0)
+    j(kScaleX) = m2 * cx * ax;
+    // dc/ds_y = T (0, a_y + b_y, 0) = (-a_yz (a_y + b_y), a_y + b_y, 0)
+    j(kScaleY) = m2 * (cx * -p(kAlphaYz) + cy) * ay;
+    // dc/ds_z = T (0, 0, a_z + b_z) = (a_zy, -a_zx, 1) (a_z + b_z)
+    j(kScaleZ) = m2 * (cx * p(kAlphaZy) - cy * p(kAlphaZx) + cz) * az;
+    // dc/db_k = T (s_k e_k): the same columns of T, times s_k instead of (a_k + b_k)
+    j(kBiasX) = m2 * cx * p(kScaleX);
+    j(kBiasY) = m2 * (cx * -p(kAlphaYz) + cy) * p(kScaleY);
+    j(kBiasZ) = m2 * (cx * p(kAlphaZy) - cy * p(kAlphaZx) + cz) * p(kScaleZ);
+  }
+  return g * g - (cx * cx + cy * cy + cz * cz);
+}
+
+}  // namespace imucal

@@ -1,0 +1,10 @@
+// imucal/imucal.hpp: the umbrella header. imucal calibrates MEMS inertial sensors on the device:
+// fixed memory, float arithmetic, no heap, no exceptions, no RTTI, no blocking calls.
+#pragma once
+
+#include "imucal/accel_calibration.hpp"
+#include "imucal/accel_model.hpp"
+#include "imucal/levenberg_marquardt.hpp"
+#include "imucal/normal_equations.hpp"
+#include "imucal/pose_store.hpp"
+#include "imucal/status.hpp"

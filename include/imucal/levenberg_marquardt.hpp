@@ -1,0 +1,133 @@
+// imucal/levenberg_marquardt.hpp: a fixed-size Levenberg-Marquardt driver over the normal-
+// equations accumulator. It can run to completion or one iteration per step() call, so a solve
+// can be time-sliced into a control loop. Never allocates, never throws, never blocks.
+//
+// A Problem is any type with
+//   Status accumulate(const Eigen::Matrix<Scalar, N, 1>& p, NormalEquations<Scalar, N>& ne) const;
+// that folds every residual row at parameters p into the (cleared) accumulator ne.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "imucal/normal_equations.hpp"
+
+namespace imucal {
+
+template <typename Scalar>
+struct LmSettings {
+  int max_iterations = 50;
+  Scalar initial_lambda = Scalar(1e-3);  // damping relative to diag(H)
+  Scalar max_lambda = Scalar(1e8);
+  // Tolerances are relative and unit-free; the defaults suit the scalar's precision.
+  Scalar step_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-10) : Scalar(2e-6);
+  Scalar cost_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-12) : Scalar(1e-6);
+  Scalar gradient_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-10) : Scalar(1e-5);
+};
+
+template <typename Scalar, int N>
+class LevenbergMarquardt {
+ public:
+  using Vector = Eigen::Matrix<Scalar, N, 1>;
+  using Accumulator = NormalEquations<Scalar, N>;
+
+  explicit LevenbergMarquardt(const LmSettings<Scalar>& settings = LmSettings<Scalar>())
+      : settings_(settings) {}
+
+  // Evaluates the problem at p0. Returns kRunning when the iteration can proceed.
+  template <class Problem>
+  Status start(const Problem& problem, const Vector& p0) {
+    iterations_ = 0;
+    lambda_ = settings_.initial_lambda;
+    if (!all_finite(p0)) return status_ = Status::kNonFiniteInput;
+    if (settings_.max_iterations < 1 || !(settings_.initial_lambda > Scalar(0)) ||
+        !(settings_.max_lambda > settings_.initial_lambda))
+      return status_ = Status::kInvalidArgument;
+    p_ = p0;
+    current_.clear();
+    const Status s = problem.accumulate(p_, current_);
+    if (s != Status::kOk) return status_ = s;
+    return status_ = check_gradient();
+  }
+
+  // One iteration: at most one pass over the residuals and one N x N factorisation.
+  template <class Problem>
+  Status step(const Problem& problem) {
+    if (status_ != Status::kRunning) return status_;
+    Vector delta;
+    Status s = current_.solve_damped(lambda_, delta);
+    if (s == Status::kOk && small_step(delta)) {
+      ++iterations_;
+      return status_ = Status::kConvergedStep;
+    }
+    if (s == Status::kOk) {
+      const Scalar f0 = current_.weighted_sse();
+      const Scalar predicted = current_.predicted_decrease(delta);
+      const Vector trial_p = p_ + delta;
+      trial_.clear();
+      const Status ts = problem.accumulate(trial_p, trial_);
+      const Scalar actual = f0 - trial_.weighted_sse();
+      if (ts == Status::kOk && actual > Scalar(0)) {
+        p_ = trial_p;
+        current_ = trial_;
+        lambda_ = lambda_ / Scalar(10);
+        if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
+        ++iterations_;
+        if (actual <= settings_.cost_tolerance * f0 &&
+            predicted <= Scalar(2) * settings_.cost_tolerance * f0)
+          return status_ = Status::kConvergedCost;
+        status_ = check_gradient();
+        if (status_ == Status::kRunning && iterations_ >= settings_.max_iterations)
+          status_ = Status::kMaxIterations;
+        return status_;
+      }
+      // Rejected: nothing left to gain if the model itself predicts a negligible decrease.
+      if (ts == Status::kOk && predicted <= settings_.cost_tolerance * f0) {
+        ++iterations_;
+        return status_ = Status::kConvergedCost;
+      }
+    }
+    // A failed solve or a rejected step: more damping, same linearisation.
+    lambda_ *= Scalar(10);
+    ++iterations_;
+    if (lambda_ > settings_.max_lambda)
+      return status_ = (s == Status::kOk ? Status::kNoProgress : s);
+    if (iterations_ >= settings_.max_iterations) return status_ = Status::kMaxIterations;
+    return status_;
+  }
+
+  template <class Problem>
+  Status run(const Problem& problem, const Vector& p0) {
+    Status s = start(problem, p0);
+    while (s == Status::kRunning) s = step(problem);
+    return s;
+  }
+
+  Status status() const { return status_; }
+  const Vector& parameters() const { return p_; }
+  // The accumulator evaluated at parameters(): cost, gradient and covariance there.
+  const Accumulator& normal_equations() const { return current_; }
+  int iterations() const { return iterations_; }
+  Scalar lambda() const { return lambda_; }
+  const LmSettings<Scalar>& settings() const { return settings_; }
+
+ private:
+  Status check_gradient() const {
+    return current_.gradient_cosine() <= settings_.gradient_tolerance ? Status::kConvergedGradient
+                                                                       : Status::kRunning;
+  }
+
+  bool small_step(const Vector& delta) const {
+    const Scalar tol = settings_.step_tolerance;
+    return delta.norm() <= tol * (p_.norm() + tol);
+  }
+
+  LmSettings<Scalar> settings_;
+  Accumulator current_;
+  Accumulator trial_;
+  Vector p_ = Vector::Zero();
+  Scalar lambda_ = Scalar(0);
+  int iterations_ = 0;
+  Status status_ = Status::kNotStarted;
+};
+
+}  // namespace imucal

@@ -1,0 +1,185 @@
+// imucal/normal_equations.hpp: the incremental normal-equations accumulator (math.md section 3).
+// Residual rows (J_i, e_i, w_i) are folded in one at a time into H = sum w J^T J (one packed
+// triangle), v = sum w J^T e, f = sum w e^2 and the row count: O(N^2) memory whatever the number
+// of rows. Never allocates (fixed-size Eigen only), never throws, never returns NaN as a result.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+
+#include "imucal/status.hpp"
+
+namespace imucal {
+
+inline bool all_finite(float x) { return std::isfinite(x); }
+inline bool all_finite(double x) { return std::isfinite(x); }
+
+template <typename Derived>
+inline bool all_finite(const Eigen::MatrixBase<Derived>& m) {
+  for (Eigen::Index i = 0; i < m.size(); ++i) {
+    if (!std::isfinite(m.coeff(i))) return false;
+  }
+  return true;
+}
+
+// Smallest ratio of LDL^T pivots (of the Jacobi-scaled matrix) accepted as non-singular.
+template <typename Scalar, int N>
+constexpr Scalar min_pivot_ratio() {
+  return Scalar(100) * Scalar(N) * std::numeric_limits<Scalar>::epsilon();
+}
+
+template <typename Scalar, int N>
+class NormalEquations {
+ public:
+  static_assert(N > 0 && N <= 16, "sized for small calibration problems");
+  using Vector = Eigen::Matrix<Scalar, N, 1>;
+  using Matrix = Eigen::Matrix<Scalar, N, N>;
+  static constexpr int kPackedSize = N * (N + 1) / 2;
+
+  NormalEquations() { clear(); }
+
+  void clear() {
+    for (Scalar& x : h_) x = Scalar(0);
+    v_.setZero();
+    f_ = Scalar(0);
+    rows_ = 0;
+  }
+
+  // Folds in one residual row e with Jacobian row j and weight w >= 0. A row with a non-finite
+  // entry or a negative weight is refused and changes nothing.
+  Status add(const Vector& j, Scalar e, Scalar w = Scalar(1)) {
+    if (!all_finite(j) || !std::isfinite(e) || !std::isfinite(w)) return Status::kNonFiniteInput;
+    if (w < Scalar(0)) return Status::kInvalidArgument;
+    int k = 0;
+    for (int c = 0; c < N; ++c) {
+      const Scalar wjc = w * j(c);
+      for (int r = c; r < N; ++r) h_[k++] += wjc * j(r);
+      v_(c) += wjc * e;
+    }
+    f_ += w * e * e;
+    ++rows_;
+    return Status::kOk;
+  }
+
+  int rows() const { return rows_; }
+  Scalar weighted_sse() const { return f_; }  // f = sum w e^2
+  const Vector& gradient() const { return v_; }  // v = sum w J^T e (half the gradient of f)
+
+  Scalar h(int r, int c) const {  // element of H, either triangle
+    if (r < c) {
+      const int t = r;
+      r = c;
+      c = t;
+    }
+    return h_[c * N - c * (c - 1) / 2 + (r - c)];
+  }
+
+  Matrix information() const {  // H as a full symmetric matrix
+    Matrix m;
+    for (int c = 0; c < N; ++c)
+      for (int r = c; r < N; ++r) m(r, c) = m(c, r) = h(r, c);
+    return m;
+  }
+
+  // Solves (H + lambda diag(H)) delta = -v. Jacobi scaling makes the test for singularity
+  // independent of the parameters' units. lambda = 0 is the Gauss-Newton step.
+  Status solve_damped(Scalar lambda, Vector& delta) const {
+    Vector scale;
+    Matrix a;
+    Status s = scaled_matrix(lambda, scale, a);
+    if (s != Status::kOk) return s;
+    Eigen::LDLT<Matrix> ldlt(a);
+    s = check_factor(ldlt);
+    if (s != Status::kOk) return s;
+    Vector rhs = -(scale.cwiseProduct(v_));
+    Vector x = ldlt.solve(rhs);
+    x = scale.cwiseProduct(x);
+    if (!all_finite(x)) return Status::kIllConditioned;
+    delta = x;
+    return Status::kOk;
+  }
+
+  // Cov(p) = f / (m - N) * H^-1, valid at the minimum of f.
+  Status covariance(Matrix& cov) const {
+    if (rows_ <= N) return Status::kTooFewResiduals;
+    Vector scale;
+    Matrix a;
+    Status s = scaled_matrix(Scalar(0), scale, a);
+    if (s != Status::kOk) return s;
+    Eigen::LDLT<Matrix> ldlt(a);
+    s = check_factor(ldlt);
+    if (s != Status::kOk) return s;
+    Matrix inv = ldlt.solve(Matrix::Identity());
+    const Scalar variance = f_ / Scalar(rows_ - N);
+    Matrix c = variance * (scale.asDiagonal() * inv * scale.asDiagonal());
+    if (!all_finite(c)) return Status::kIllConditioned;
+    cov = c;
+    return Status::kOk;
+  }
+
+  Status standard_deviations(Vector& sd) const {
+    Matrix cov;
+    const Status s = covariance(cov);
+    if (s != Status::kOk) return s;
+    for (int i = 0; i < N; ++i) sd(i) = std::sqrt(cov(i, i) > Scalar(0) ? cov(i, i) : Scalar(0));
+    return Status::kOk;
+  }
+
+  // max_i |v_i| / sqrt(H_ii f): the largest cosine between the residual vector and a Jacobian
+  // column. Unit-free; 0 at an exact minimum.
+  Scalar gradient_cosine() const {
+    if (!(f_ > Scalar(0))) return Scalar(0);
+    Scalar worst = Scalar(0);
+    for (int i = 0; i < N; ++i) {
+      const Scalar d = h(i, i);
+      if (d > Scalar(0)) {
+        const Scalar c = std::abs(v_(i)) / std::sqrt(d * f_);
+        if (c > worst) worst = c;
+      }
+    }
+    return worst;
+  }
+
+  // Gauss-Newton model of the decrease of f for a step delta: -(2 delta.v + delta^T H delta).
+  Scalar predicted_decrease(const Vector& delta) const {
+    const Matrix hm = information();
+    return -(Scalar(2) * delta.dot(v_) + delta.dot(hm * delta));
+  }
+
+ private:
+  Status scaled_matrix(Scalar lambda, Vector& scale, Matrix& a) const {
+    if (!std::isfinite(lambda) || lambda < Scalar(0)) return Status::kInvalidArgument;
+    if (rows_ == 0) return Status::kRankDeficient;
+    for (int i = 0; i < N; ++i) {
+      const Scalar d = h(i, i);
+      if (!(d > Scalar(0)) || !std::isfinite(d)) return Status::kRankDeficient;
+      scale(i) = Scalar(1) / std::sqrt(d);
+    }
+    for (int c = 0; c < N; ++c) {
+      for (int r = c; r < N; ++r) a(r, c) = a(c, r) = h(r, c) * scale(r) * scale(c);
+      a(c, c) = Scalar(1) + lambda;
+    }
+    return Status::kOk;
+  }
+
+  static Status check_factor(const Eigen::LDLT<Matrix>& ldlt) {
+    if (ldlt.info() != Eigen::Success) return Status::kRankDeficient;
+    const Vector d = ldlt.vectorD();
+    if (!all_finite(d)) return Status::kIllConditioned;
+    const Scalar dmax = d.maxCoeff();
+    const Scalar dmin = d.minCoeff();
+    if (!(dmax > Scalar(0)) || !(dmin > Scalar(0))) return Status::kRankDeficient;
+    if (dmin < min_pivot_ratio<Scalar, N>() * dmax) return Status::kIllConditioned;
+    return Status::kOk;
+  }
+
+  Scalar h_[static_cast<std::size_t>(kPackedSize)];
+  Vector v_;
+  Scalar f_;
+  int rows_;
+};
+
+}  // namespace imucal

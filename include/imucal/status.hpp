@@ -1,0 +1,43 @@
+// imucal/status.hpp: the one status type every fallible imucal call returns, and what it means.
+// Never allocates, never throws; to_string() returns a static string.
+#pragma once
+
+#include <cstdint>
+
+namespace imucal {
+
+enum class Status : std::uint8_t {
+  kOk = 0,
+  // Levenberg-Marquardt progress and why it stopped.
+  kRunning,            // one iteration done, not converged yet: call step() again
+  kConvergedStep,      // the step fell below the step tolerance
+  kConvergedGradient,  // the residual is orthogonal to every Jacobian column (to tolerance)
+  kConvergedCost,      // the cost no longer decreases by more than the cost tolerance
+  kMaxIterations,      // iteration cap reached before convergence (estimate not trusted)
+  kNoProgress,         // damping at its maximum and still no decrease of the cost
+  kNotStarted,         // step() called before start()
+  // Input.
+  kNonFiniteInput,       // NaN or infinity in a reading, weight or parameter
+  kInvalidArgument,      // a count, weight or setting out of its range
+  kCapacityExceeded,     // a fixed-capacity store is full; nothing was overwritten
+  kTooFewPoses,          // fewer poses than parameters
+  kTooFewDistinctPoses,  // enough poses, but too many of them point the same way
+  kPosesCoplanar,        // all poses in one plane (e.g. turned about a single axis)
+  kTooFewResiduals,      // covariance asked with no more residuals than parameters
+  // Numerics.
+  kRankDeficient,   // the normal matrix is singular (a parameter is not observable)
+  kIllConditioned,  // the normal matrix is too close to singular for this scalar type
+  kNotAnEllipsoid,  // the closed-form fit found a quadric that is not an ellipsoid
+  kUnobservable,    // solved, but a parameter's sigma is too large to call it calibrated
+};
+
+// True for the statuses that mean "this estimate is usable".
+constexpr bool succeeded(Status s) {
+  return s == Status::kOk || s == Status::kConvergedStep || s == Status::kConvergedGradient ||
+         s == Status::kConvergedCost;
+}
+
+// Short English description, e.g. "poses coplanar". Static storage, never null.
+const char* to_string(Status s);
+
+}  // namespace imucal

@@ -1,0 +1,215 @@
+// Accelerometer calibration: pose checks, closed-form ellipsoid start, normalised LM, and the
+// mapping back to sensor units. Instantiated for float (device) and double (reference).
+#include "imucal/accel_calibration.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+namespace imucal {
+
+template <typename Scalar>
+Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
+                   Vector3<Scalar>& centre, Scalar& scale) {
+  if (poses.data == nullptr && poses.size != 0) return Status::kInvalidArgument;
+  if (!(settings.gravity > Scalar(0)) || !std::isfinite(settings.gravity) ||
+      !(settings.min_pose_separation >= Scalar(0)) || !(settings.min_spread_ratio >= Scalar(0)) ||
+      !(settings.max_normalised_sigma > Scalar(0)))
+    return Status::kInvalidArgument;
+  for (int i = 0; i < poses.size; ++i) {
+    if (!all_finite(poses[i].mean)) return Status::kNonFiniteInput;
+    if (poses[i].samples == 0) return Status::kInvalidArgument;
+  }
+  if (poses.size < kAccelParams) return Status::kTooFewPoses;
+
+  // Centre on the mean of the means, shifted by the first pose so float sums stay small.
+  const Vector3<Scalar> origin = poses[0].mean;
+  Vector3<Scalar> sum = Vector3<Scalar>::Zero();
+  for (int i = 0; i < poses.size; ++i) sum += poses[i].mean - origin;
+  centre = origin + sum / Scalar(poses.size);
+  Scalar sq = Scalar(0);
+  for (int i = 0; i < poses.size; ++i) sq += (poses[i].mean - centre).squaredNorm();
+  scale = std::sqrt(sq / Scalar(poses.size));
+  if (!(scale > Scalar(0)) || !std::isfinite(scale)) return Status::kTooFewDistinctPoses;
+
+  // Distinct directions: a pose counts if no earlier counted pose lies within the separation.
+  const Scalar sep = settings.min_pose_separation * scale;
+  int distinct = 0;
+  for (int i = 0; i < poses.size; ++i) {
+    bool is_new = true;
+    for (int j = 0; j < i && is_new; ++j) {
+      if ((poses[i].mean - poses[j].mean).norm() < sep) is_new = false;
+    }
+    if (is_new) ++distinct;
+  }
+  if (distinct < kAccelParams) return Status::kTooFewDistinctPoses;
+
+  // Spread: eigenvalues of the scatter of the normalised means.
+  Matrix3<Scalar> scatter = Matrix3<Scalar>::Zero();
+  for (int i = 0; i < poses.size; ++i) {
+    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    scatter += x * x.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
+  eig.computeDirect(scatter, Eigen::EigenvaluesOnly);
+  const Vector3<Scalar> ev = eig.eigenvalues();  // ascending
+  if (!all_finite(ev) || !(ev(2) > Scalar(0))) return Status::kTooFewDistinctPoses;
+  if (ev(0) < settings.min_spread_ratio * ev(2)) return Status::kPosesCoplanar;
+  return Status::kOk;
+}
+
+template <typename Scalar>
+Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scalar scale,
+                     AccelVector<Scalar>& p_normalised) {
+  if (poses.size < kAccelParams) return Status::kTooFewPoses;
+  // x^T Q x + u^T x = 1, theta = [Q00 Q11 Q22 Q01 Q02 Q12 u0 u1 u2]: a linear least-squares
+  // problem, accumulated in the same normal-equations form (residual phi.theta - 1, at theta=0).
+  Scalar mean_n = Scalar(0);
+  for (int i = 0; i < poses.size; ++i) mean_n += Scalar(poses[i].samples);
+  mean_n /= Scalar(poses.size);
+  NormalEquations<Scalar, kAccelParams> ne;
+  for (int i = 0; i < poses.size; ++i) {
+    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    AccelVector<Scalar> phi;
+    phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1),
+        Scalar(2) * x(0) * x(2), Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
+    const Status s = ne.add(phi, Scalar(-1), Scalar(poses[i].samples) / mean_n);
+    if (s != Status::kOk) return s;
+  }
+  AccelVector<Scalar> theta;
+  const Status s = ne.solve_damped(Scalar(0), theta);
+  if (s != Status::kOk) return s;
+
+  Matrix3<Scalar> q;
+  q << theta(0), theta(3), theta(4),  //
+      theta(3), theta(1), theta(5),    //
+      theta(4), theta(5), theta(2);
+  const Vector3<Scalar> u(theta(6), theta(7), theta(8));
+  Eigen::LLT<Matrix3<Scalar>> llt_q(q);
+  if (llt_q.info() != Eigen::Success) return Status::kNotAnEllipsoid;
+  const Vector3<Scalar> c = Scalar(-0.5) * llt_q.solve(u);  // ellipsoid centre
+  const Scalar r = Scalar(1) + c.dot(q * c);               // (x-c)^T Q (x-c) = r
+  if (!(r > Scalar(0)) || !all_finite(c)) return Status::kNotAnEllipsoid;
+  Eigen::LLT<Matrix3<Scalar>> llt(q / r);
+  if (llt.info() != Eigen::Success) return Status::kNotAnEllipsoid;
+  const Matrix3<Scalar> rm = llt.matrixU();  // Q/r = R^T R, R upper triangular = T K
+  AccelVector<Scalar> p;
+  p(kScaleX) = rm(0, 0);
+  p(kScaleY) = rm(1, 1);
+  p(kScaleZ) = rm(2, 2);
+  p(kAlphaYz) = -rm(0, 1) / rm(1, 1);
+  p(kAlphaZy) = rm(0, 2) / rm(2, 2);
+  p(kAlphaZx) = -rm(1, 2) / rm(2, 2);
+  p(kBiasX) = -c(0);
+  p(kBiasY) = -c(1);
+  p(kBiasZ) = -c(2);
+  if (!all_finite(p)) return Status::kNotAnEllipsoid;
+  p_normalised = p;
+  return Status::kOk;
+}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::Problem::accumulate(const AccelVector<Scalar>& p,
+                                                NormalEquations<Scalar, kAccelParams>& ne) const {
+  for (int i = 0; i < poses.size; ++i) {
+    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    AccelVector<Scalar> j;
+    const Scalar e = accel_residual(p, x, Scalar(1), &j);
+    const Status s = ne.add(j, e, Scalar(poses[i].samples));
+    if (s != Status::kOk) return s;
+  }
+  return Status::kOk;
+}
+
+template <typename Scalar>
+AccelSolver<Scalar>::AccelSolver(const AccelSettings<Scalar>& settings)
+    : settings_(settings), lm_(settings.lm) {}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
+  problem_.poses = poses;
+  problem_.centre.setZero();
+  problem_.scale = Scalar(1);
+  Status s = check_poses(poses, settings_, problem_.centre, problem_.scale);
+  if (s != Status::kOk) return status_ = s;
+  AccelVector<Scalar> p0;
+  s = fit_ellipsoid(poses, problem_.centre, problem_.scale, p0);
+  if (s != Status::kOk) return status_ = s;
+  return status_ = lm_.start(problem_, p0);
+}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::step() {
+  if (status_ != Status::kRunning) return status_;
+  return status_ = lm_.step(problem_);
+}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
+  out.poses = problem_.poses.size;
+  out.iterations = lm_.iterations();
+  out.status = status_;
+  if (!succeeded(status_) && status_ != Status::kMaxIterations) return status_;
+
+  const AccelVector<Scalar>& pn = lm_.parameters();
+  AccelVector<Scalar> sdn;
+  const Status cs = lm_.normal_equations().standard_deviations(sdn);
+  if (cs != Status::kOk) return out.status = cs;
+  if (!(sdn.maxCoeff() <= settings_.max_normalised_sigma)) return out.status = Status::kUnobservable;
+
+  // Back to sensor units: x = (a - centre) / scale and unit gravity, so
+  // s = s' g / scale, b = scale b' - centre, misalignments unchanged.
+  const Scalar g = settings_.gravity;
+  const Scalar k = problem_.scale;
+  AccelVector<Scalar> p = pn;
+  AccelVector<Scalar> sd = sdn;
+  for (int i = 0; i < 3; ++i) {
+    p(kScaleX + i) = pn(kScaleX + i) * g / k;
+    sd(kScaleX + i) = sdn(kScaleX + i) * g / k;
+    p(kBiasX + i) = k * pn(kBiasX + i) - problem_.centre(i);
+    sd(kBiasX + i) = k * sdn(kBiasX + i);
+  }
+  Scalar sum_w = Scalar(0), sum_r2 = Scalar(0);
+  for (int i = 0; i < problem_.poses.size; ++i) {
+    const Vector3<Scalar> x = (problem_.poses[i].mean - problem_.centre) / k;
+    const Vector3<Scalar> c = accel_apply(pn, x);
+    const Scalar r = g * (Scalar(1) - c.norm());
+    const Scalar w = Scalar(problem_.poses[i].samples);
+    sum_w += w;
+    sum_r2 += w * r * r;
+  }
+  const Scalar rms = std::sqrt(sum_r2 / sum_w);
+  if (!all_finite(p) || !all_finite(sd) || !std::isfinite(rms)) {
+    return out.status = Status::kIllConditioned;
+  }
+  out.params = p;
+  out.sigma = sd;
+  out.residual_rms = rms;
+  return status_;
+}
+
+template <typename Scalar>
+Status calibrate_accelerometer(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
+                               AccelCalibration<Scalar>& out) {
+  AccelSolver<Scalar> solver(settings);
+  Status s = solver.start(poses);
+  while (s == Status::kRunning) s = solver.step();
+  return solver.finish(out);
+}
+
+template class AccelSolver<float>;
+template class AccelSolver<double>;
+template Status check_poses<float>(PoseSpan<float>, const AccelSettings<float>&, Vector3<float>&,
+                                   float&);
+template Status check_poses<double>(PoseSpan<double>, const AccelSettings<double>&,
+                                    Vector3<double>&, double&);
+template Status fit_ellipsoid<float>(PoseSpan<float>, const Vector3<float>&, float,
+                                     AccelVector<float>&);
+template Status fit_ellipsoid<double>(PoseSpan<double>, const Vector3<double>&, double,
+                                      AccelVector<double>&);
+template Status calibrate_accelerometer<float>(PoseSpan<float>, const AccelSettings<float>&,
+                                               AccelCalibration<float>&);
+template Status calibrate_accelerometer<double>(PoseSpan<double>, const AccelSettings<double>&,
+                                                AccelCalibration<double>&);
+
+}  // namespace imucal
