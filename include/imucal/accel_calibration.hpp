@@ -76,15 +76,22 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
                      AccelVector<Scalar>& p_normalised);
 
 // Checks that the poses can determine the 9 parameters: count, finiteness, distinct
-// directions, not all in one plane. Also returns the centre and scale used to normalise.
+// directions, not all in one plane (min_spread_ratio: a scale-free measure within a factor 3 of
+// the smallest over the largest eigenvalue of the directions' scatter). Also returns the centre
+// and scale used to normalise.
 template <typename Scalar>
 Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
                    Vector3<Scalar>& centre, Scalar& scale);
 
-// Run to completion.
+// Run to completion (the same steps as the time-sliced form, in one call).
 template <typename Scalar>
 Status calibrate_accelerometer(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
-                               AccelCalibration<Scalar>& out);
+                               AccelCalibration<Scalar>& out) {
+  AccelSolver<Scalar> solver(settings);
+  Status s = solver.start(poses);
+  while (s == Status::kRunning) s = solver.step();
+  return solver.finish(out);
+}
 
 extern template class AccelSolver<float>;
 extern template class AccelSolver<double>;

@@ -112,7 +112,16 @@ class NormalEquations {
     Eigen::LDLT<Matrix> ldlt(a);
     s = check_factor(ldlt);
     if (s != Status::kOk) return s;
-    Matrix inv = ldlt.solve(Matrix::Identity());
+    // Column by column, plain vector in and out: a matrix right-hand side, an expression, or a
+    // block as destination each take an Eigen path that links malloc (and a thread-safe static);
+    // the footprint's link-time no-heap check caught all three.
+    Matrix inv;
+    for (int c = 0; c < N; ++c) {
+      Vector unit = Vector::Zero();
+      unit(c) = Scalar(1);
+      const Vector column = ldlt.solve(unit);
+      inv.col(c) = column;
+    }
     const Scalar variance = f_ / Scalar(rows_ - N);
     Matrix c = variance * (scale.asDiagonal() * inv * scale.asDiagonal());
     if (!all_finite(c)) return Status::kIllConditioned;

@@ -1,0 +1,50 @@
+// bench/footprint/footprint.cpp: a firmware-shaped program that uses the whole public API in
+// float, built optimised for each Arm target. The build fails if it links any allocation
+// symbol (cmake/CheckNoHeap.cmake), and prints its sizes. Built a second time with
+// IMUCAL_FOOTPRINT_BASELINE (same I/O, no imucal) so the difference is imucal's own size.
+#include <cstdint>
+#include <cstdio>
+
+#ifndef IMUCAL_FOOTPRINT_BASELINE
+#include "imucal/imucal.hpp"
+#endif
+
+namespace {
+
+// Pose means arrive through volatile memory, as from a sensor driver, so nothing folds away.
+volatile float g_input[3 * 12] = {
+    9.8f, 0.1f, 0.2f,  -9.7f, 0.2f, 0.1f,  0.1f, 9.9f, 0.3f,   0.2f, -9.8f, 0.1f,
+    0.1f, 0.2f, 9.9f,  0.3f, 0.1f, -9.7f,  6.9f, 6.9f, 0.2f,   -6.9f, 0.1f, 6.9f,
+    0.2f, -6.8f, -6.9f, 5.7f, -5.6f, 5.7f, -5.6f, 5.7f, -5.7f, -5.7f, -5.6f, 5.6f};
+
+}  // namespace
+
+int main() {
+#ifdef IMUCAL_FOOTPRINT_BASELINE
+  float sum = 0.0f;
+  for (int i = 0; i < 36; ++i) sum += g_input[i];
+  std::printf("baseline %d\n", static_cast<int>(sum));
+  return 0;
+#else
+  imucal::PoseStore<float, 48> poses;
+  for (int i = 0; i < 12; ++i) {
+    const float x = g_input[3 * i], y = g_input[3 * i + 1], z = g_input[3 * i + 2];
+    const imucal::Vector3<float> m(x, y, z);
+    if (poses.add(m, 200u + static_cast<std::uint32_t>(i)) != imucal::Status::kOk) return 2;
+  }
+  imucal::AccelSettings<float> settings;
+  settings.gravity = 9.81f;
+  imucal::AccelSolver<float> solver(settings);
+  imucal::Status s = solver.start(poses.span());
+  while (s == imucal::Status::kRunning) s = solver.step();  // time-sliced form
+  imucal::AccelCalibration<float> cal;
+  s = solver.finish(cal);
+  imucal::AccelCalibration<float> once;
+  const imucal::Status s2 = imucal::calibrate_accelerometer(poses.span(), settings, once);
+  const imucal::Vector3<float> a = imucal::accel_apply(cal.params, poses[0].mean);
+  std::printf("%s / %s, |a| = %d mm/s^2, rms %d um/s^2\n", imucal::to_string(s),
+              imucal::to_string(s2), static_cast<int>(a.norm() * 1000.0f),
+              static_cast<int>(cal.residual_rms * 1e6f));
+  return imucal::succeeded(s) && imucal::succeeded(s2) ? 0 : 1;
+#endif
+}
