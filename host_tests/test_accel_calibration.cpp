@@ -3,12 +3,11 @@
 // specific status for every kind of degenerate input.
 #include <gtest/gtest.h>
 
-#include "support/gtest_status.hpp"
-
 #include <Eigen/Geometry>
 #include <cmath>
 
 #include "imucal/accel_calibration.hpp"
+#include "support/gtest_status.hpp"
 #include "support/sim_poses.hpp"
 
 namespace imucal {
@@ -60,7 +59,8 @@ TEST(AccelCalibration, NoiseFreePosesGiveTheTruthExactly) {
                   1e-9 * (std::abs(truth.params(kBiasX + i)) + 1));
     }
     AccelCalibration<double> out;
-    const Status s = calibrate_accelerometer(poses.span(), settings_for<double>(truth.gravity), out);
+    const Status s =
+        calibrate_accelerometer(poses.span(), settings_for<double>(truth.gravity), out);
     ASSERT_TRUE(succeeded(s)) << to_string(s);
     for (int k = 0; k < kAccelParams; ++k)
       EXPECT_NEAR(out.params(k), truth.params(k), 1e-8 * (std::abs(truth.params(k)) + 1e-3))
@@ -93,10 +93,18 @@ void expect_within_three_sigma(const sim::AccelSensorSpec& spec, std::uint64_t s
   EXPECT_LT(static_cast<double>(out.residual_rms), 2.0 * noise_ms2);
 }
 
-TEST(AccelCalibration, WithinThreeSigmaSiUnitsDouble) { expect_within_three_sigma<double>(sim::AccelSensorSpec::si(), 101); }
-TEST(AccelCalibration, WithinThreeSigmaRawCountsDouble) { expect_within_three_sigma<double>(sim::AccelSensorSpec::raw_counts(), 102); }
-TEST(AccelCalibration, WithinThreeSigmaSiUnitsFloat) { expect_within_three_sigma<float>(sim::AccelSensorSpec::si(), 103); }
-TEST(AccelCalibration, WithinThreeSigmaRawCountsFloat) { expect_within_three_sigma<float>(sim::AccelSensorSpec::raw_counts(), 104); }
+TEST(AccelCalibration, WithinThreeSigmaSiUnitsDouble) {
+  expect_within_three_sigma<double>(sim::AccelSensorSpec::si(), 101);
+}
+TEST(AccelCalibration, WithinThreeSigmaRawCountsDouble) {
+  expect_within_three_sigma<double>(sim::AccelSensorSpec::raw_counts(), 102);
+}
+TEST(AccelCalibration, WithinThreeSigmaSiUnitsFloat) {
+  expect_within_three_sigma<float>(sim::AccelSensorSpec::si(), 103);
+}
+TEST(AccelCalibration, WithinThreeSigmaRawCountsFloat) {
+  expect_within_three_sigma<float>(sim::AccelSensorSpec::raw_counts(), 104);
+}
 
 // One seed can pass by luck; over 40 simulated recordings the z-scores (error / sigma) must have
 // RMS near 1 for every parameter: sigma neither flatters nor hides the real scatter. With 40
@@ -109,7 +117,8 @@ TEST(AccelCalibration, SigmaMatchesTheScatterOverManyRecordings) {
     for (int run = 0; run < kRuns; ++run) {
       const test::SimulatedPoses sim = simulate_poses(spec, 1000 + static_cast<std::uint64_t>(run));
       AccelCalibration<double> out;
-      const Status s = calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), out);
+      const Status s =
+          calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), out);
       ASSERT_TRUE(succeeded(s)) << to_string(s) << " run " << run;
       const AccelVector<double> z = (out.params - sim.truth.params).cwiseQuotient(out.sigma);
       sum_z2 += z.cwiseProduct(z);
@@ -133,13 +142,15 @@ TEST(AccelCalibration, FloatAgreesWithDoubleWithinATenthOfSigma) {
       const test::FloatStore fposes = to_float(sim.poses);
       AccelCalibration<double> d;
       AccelCalibration<float> f;
-      ASSERT_TRUE(succeeded(calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), d)));
-      const Status fs = calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), f);
+      ASSERT_TRUE(succeeded(
+          calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), d)));
+      const Status fs =
+          calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), f);
       ASSERT_TRUE(succeeded(fs)) << to_string(fs) << " seed " << seed;
       for (int k = 0; k < kAccelParams; ++k) {
         const double diff = std::abs(static_cast<double>(f.params(k)) - d.params(k));
         EXPECT_LT(diff, 0.1 * d.sigma(k)) << kNames[k] << " seed " << seed << " float "
-                                         << f.params(k) << " double " << d.params(k);
+                                          << f.params(k) << " double " << d.params(k);
         EXPECT_NEAR(static_cast<double>(f.sigma(k)), d.sigma(k), 0.05 * d.sigma(k)) << kNames[k];
       }
     }
@@ -150,7 +161,8 @@ TEST(AccelCalibration, TimeSlicedSolveEqualsTheOneShotSolve) {
   const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::raw_counts(), 300);
   const test::FloatStore fposes = to_float(sim.poses);
   AccelCalibration<float> whole;
-  const Status ws = calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), whole);
+  const Status ws =
+      calibrate_accelerometer(fposes.span(), settings_for<float>(sim.truth.gravity), whole);
   ASSERT_TRUE(succeeded(ws));
 
   AccelSolver<float> solver(settings_for<float>(sim.truth.gravity));
@@ -238,8 +250,7 @@ TEST(AccelDegenerate, DuplicatePoses) {
   const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 420, 6);
   DoubleStore doubled;
   for (int rep = 0; rep < 2; ++rep)
-    for (int i = 0; i < sim.poses.size(); ++i)
-      doubled.add(sim.poses[i].mean, sim.poses[i].samples);
+    for (int i = 0; i < sim.poses.size(); ++i) doubled.add(sim.poses[i].mean, sim.poses[i].samples);
   expect_status(doubled, Status::kTooFewDistinctPoses);
   // All the same direction.
   DoubleStore same;
@@ -255,7 +266,8 @@ TEST(AccelDegenerate, NonFiniteReadingsAreRefusedAndNothingIsLost) {
   EXPECT_EQ(store.add(Vector3<double>(0, 0, 9.8), 0), Status::kInvalidArgument);
   EXPECT_EQ(store.size(), 12);
   AccelCalibration<double> out;
-  EXPECT_TRUE(succeeded(calibrate_accelerometer(store.span(), settings_for<double>(sim.truth.gravity), out)));
+  EXPECT_TRUE(succeeded(
+      calibrate_accelerometer(store.span(), settings_for<double>(sim.truth.gravity), out)));
 
   // Poses that bypass the store (a caller's own array) are checked by the solver as well.
   Pose<double> raw[12];
@@ -271,7 +283,8 @@ TEST(AccelDegenerate, NonFiniteReadingsAreRefusedAndNothingIsLost) {
 
 TEST(AccelDegenerate, FullStoreRefusesAndKeepsWhatItHas) {
   PoseStore<float, 9> store;
-  for (int i = 0; i < 9; ++i) ASSERT_EQ(store.add(Vector3<float>(1.0f * float(i), 0, 0), 10), Status::kOk);
+  for (int i = 0; i < 9; ++i)
+    ASSERT_EQ(store.add(Vector3<float>(1.0f * float(i), 0, 0), 10), Status::kOk);
   EXPECT_TRUE(store.full());
   EXPECT_EQ(store.add(Vector3<float>(99, 0, 0), 10), Status::kCapacityExceeded);
   EXPECT_EQ(store.size(), 9);

@@ -1,12 +1,11 @@
 // The seed's analytic Jacobian of e = |g|^2 - |T K (a + b)|^2 against central differences.
 #include <gtest/gtest.h>
 
-#include "support/gtest_status.hpp"
-
 #include <cmath>
 
 #include "imucal/accel_model.hpp"
 #include "imucal/sim/accel_sim.hpp"
+#include "support/gtest_status.hpp"
 
 namespace imucal {
 namespace {
@@ -18,8 +17,9 @@ AccelVector<double> central_differences(const AccelVector<double>& p, const Vect
                                         double g) {
   AccelVector<double> j;
   for (int k = 0; k < kAccelParams; ++k) {
-    const double h = k < kScaleX ? 0.01 : k < kBiasX ? 0.01 * std::abs(p(k))
-                                                     : 0.01 / std::abs(p(k - 3));
+    const double h = k < kScaleX  ? 0.01
+                     : k < kBiasX ? 0.01 * std::abs(p(k))
+                                  : 0.01 / std::abs(p(k - 3));
     AccelVector<double> hi = p, lo = p;
     hi(k) += h;
     lo(k) -= h;
@@ -46,10 +46,10 @@ void expect_jacobian_matches(const sim::AccelSensorSpec& spec, std::uint64_t see
     const AccelVector<double> numeric = central_differences(p, a, 9.81);
     const double row_scale = numeric.cwiseAbs().maxCoeff();
     for (int k = 0; k < kAccelParams; ++k) {
-      const double rel = std::abs(analytic(k) - numeric(k)) /
-                         std::max(std::abs(numeric(k)), 1e-9 * row_scale);
-      EXPECT_LT(rel, 1e-7) << "parameter " << k << " trial " << trial << " analytic "
-                           << analytic(k) << " numeric " << numeric(k);
+      const double rel =
+          std::abs(analytic(k) - numeric(k)) / std::max(std::abs(numeric(k)), 1e-9 * row_scale);
+      EXPECT_LT(rel, 1e-7) << "parameter " << k << " trial " << trial << " analytic " << analytic(k)
+                           << " numeric " << numeric(k);
     }
   }
 }

@@ -1,12 +1,11 @@
 // The LM driver on problems with known minima: convergence, time slicing, stopping reasons.
 #include <gtest/gtest.h>
 
-#include "support/gtest_status.hpp"
-
 #include <cmath>
 #include <limits>
 
 #include "imucal/levenberg_marquardt.hpp"
+#include "support/gtest_status.hpp"
 
 namespace imucal {
 namespace {

@@ -2,14 +2,13 @@
 // against Monte Carlo, and its refusals (singular systems, non-finite rows).
 #include <gtest/gtest.h>
 
-#include "support/gtest_status.hpp"
-
-#include <Eigen/QR>
 #include <Eigen/LU>
+#include <Eigen/QR>
 #include <cmath>
 
 #include "imucal/normal_equations.hpp"
 #include "imucal/sim/random.hpp"
+#include "support/gtest_status.hpp"
 
 namespace imucal {
 namespace {
@@ -39,7 +38,8 @@ Batch random_batch(std::uint64_t seed) {
 TEST(NormalEquations, MatchesBatchLeastSquares) {
   const Batch b = random_batch(1);
   NE ne;
-  for (int r = 0; r < kRows; ++r) ASSERT_EQ(ne.add(b.j.row(r).transpose(), b.e(r), b.w(r)), Status::kOk);
+  for (int r = 0; r < kRows; ++r)
+    ASSERT_EQ(ne.add(b.j.row(r).transpose(), b.e(r), b.w(r)), Status::kOk);
   const Eigen::Matrix<double, kN, kN> h = b.j.transpose() * b.w.asDiagonal() * b.j;
   const Vec v = b.j.transpose() * b.w.asDiagonal() * b.e;
   EXPECT_LT((ne.information() - h).norm(), 1e-12 * h.norm());
@@ -67,8 +67,7 @@ TEST(NormalEquations, MatchesBatchLeastSquares) {
   // Covariance f/(m-n) H^-1 and the predicted decrease of the Gauss-Newton model.
   Eigen::Matrix<double, kN, kN> cov;
   ASSERT_EQ(ne.covariance(cov), Status::kOk);
-  const Eigen::Matrix<double, kN, kN> expected_cov =
-      ne.weighted_sse() / (kRows - kN) * h.inverse();
+  const Eigen::Matrix<double, kN, kN> expected_cov = ne.weighted_sse() / (kRows - kN) * h.inverse();
   EXPECT_LT((cov - expected_cov).norm(), 1e-10 * expected_cov.norm());
   ASSERT_EQ(ne.solve_damped(0.0, delta), Status::kOk);
   const double f_after = (sw.asDiagonal() * (b.e + b.j * delta)).squaredNorm();
@@ -93,7 +92,8 @@ TEST(NormalEquations, CovarianceDescribesEstimateScatter) {
       y(r) = j.row(r).dot(truth) + rng.normal() / std::sqrt(w(r));
     }
     NE ne;
-    for (int r = 0; r < kRows; ++r) ASSERT_EQ(ne.add(j.row(r).transpose(), -y(r), w(r)), Status::kOk);
+    for (int r = 0; r < kRows; ++r)
+      ASSERT_EQ(ne.add(j.row(r).transpose(), -y(r), w(r)), Status::kOk);
     Vec p;
     ASSERT_EQ(ne.solve_damped(0.0, p), Status::kOk);
     NE at_estimate;  // the covariance needs f at the minimum
@@ -132,7 +132,8 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
   // A parameter that no row depends on.
   NE zero_column;
   sim::Random rng(3);
-  for (int r = 0; r < 10; ++r) zero_column.add(Vec(rng.normal(), rng.normal(), rng.normal(), 0.0), 1.0);
+  for (int r = 0; r < 10; ++r)
+    zero_column.add(Vec(rng.normal(), rng.normal(), rng.normal(), 0.0), 1.0);
   Vec delta = sentinel;
   EXPECT_EQ(zero_column.solve_damped(0.0, delta), Status::kRankDeficient);
   EXPECT_EQ(delta, sentinel);
@@ -166,7 +167,8 @@ TEST(NormalEquations, FloatAgreesWithDouble) {
   NormalEquations<float, kN> f;
   for (int r = 0; r < kRows; ++r) {
     d.add(b.j.row(r).transpose(), b.e(r), b.w(r));
-    f.add(b.j.row(r).transpose().cast<float>(), static_cast<float>(b.e(r)), static_cast<float>(b.w(r)));
+    f.add(b.j.row(r).transpose().cast<float>(), static_cast<float>(b.e(r)),
+          static_cast<float>(b.w(r)));
   }
   Vec dd;
   Eigen::Matrix<float, kN, 1> df;

@@ -2,11 +2,10 @@
 // double, judged by the per-sample gravity-norm residual over every still sample.
 #include <gtest/gtest.h>
 
-#include "support/gtest_status.hpp"
-
 #include <cmath>
 
 #include "imucal/accel_calibration.hpp"
+#include "support/gtest_status.hpp"
 #include "support/xsens_reader.hpp"
 
 namespace imucal {

@@ -34,11 +34,12 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
 
   // Distinct directions: a pose counts if no earlier counted pose lies within the separation.
   const Scalar sep = settings.min_pose_separation * scale;
+  const Scalar sep2 = sep * sep;  // squared distances: no square root per pair
   int distinct = 0;
   for (int i = 0; i < poses.size; ++i) {
     bool is_new = true;
     for (int j = 0; j < i && is_new; ++j) {
-      if ((poses[i].mean - poses[j].mean).norm() < sep) is_new = false;
+      if ((poses[i].mean - poses[j].mean).squaredNorm() < sep2) is_new = false;
     }
     if (is_new) ++distinct;
   }
@@ -73,8 +74,8 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   for (int i = 0; i < poses.size; ++i) {
     const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
     AccelVector<Scalar> phi;
-    phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1),
-        Scalar(2) * x(0) * x(2), Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
+    phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1), Scalar(2) * x(0) * x(2),
+        Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
     const Status s = ne.add(phi, Scalar(-1), Scalar(poses[i].samples) / mean_n);
     if (s != Status::kOk) return s;
   }
@@ -84,13 +85,13 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
 
   Matrix3<Scalar> q;
   q << theta(0), theta(3), theta(4),  //
-      theta(3), theta(1), theta(5),    //
+      theta(3), theta(1), theta(5),   //
       theta(4), theta(5), theta(2);
   const Vector3<Scalar> u(theta(6), theta(7), theta(8));
   Eigen::LLT<Matrix3<Scalar>> llt_q(q);
   if (llt_q.info() != Eigen::Success) return Status::kNotAnEllipsoid;
   const Vector3<Scalar> c = Scalar(-0.5) * llt_q.solve(u);  // ellipsoid centre
-  const Scalar r = Scalar(1) + c.dot(q * c);               // (x-c)^T Q (x-c) = r
+  const Scalar r = Scalar(1) + c.dot(q * c);                // (x-c)^T Q (x-c) = r
   if (!(r > Scalar(0)) || !all_finite(c)) return Status::kNotAnEllipsoid;
   Eigen::LLT<Matrix3<Scalar>> llt(q / r);
   if (llt.info() != Eigen::Success) return Status::kNotAnEllipsoid;
@@ -157,7 +158,8 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   AccelVector<Scalar> sdn;
   const Status cs = lm_.normal_equations().standard_deviations(sdn);
   if (cs != Status::kOk) return out.status = cs;
-  if (!(sdn.maxCoeff() <= settings_.max_normalised_sigma)) return out.status = Status::kUnobservable;
+  if (!(sdn.maxCoeff() <= settings_.max_normalised_sigma))
+    return out.status = Status::kUnobservable;
 
   // Back to sensor units: x = (a - centre) / scale and unit gravity, so
   // s = s' g / scale, b = scale b' - centre, misalignments unchanged.

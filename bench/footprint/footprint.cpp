@@ -12,10 +12,10 @@
 namespace {
 
 // Pose means arrive through volatile memory, as from a sensor driver, so nothing folds away.
-volatile float g_input[3 * 12] = {
-    9.8f, 0.1f, 0.2f,  -9.7f, 0.2f, 0.1f,  0.1f, 9.9f, 0.3f,   0.2f, -9.8f, 0.1f,
-    0.1f, 0.2f, 9.9f,  0.3f, 0.1f, -9.7f,  6.9f, 6.9f, 0.2f,   -6.9f, 0.1f, 6.9f,
-    0.2f, -6.8f, -6.9f, 5.7f, -5.6f, 5.7f, -5.6f, 5.7f, -5.7f, -5.7f, -5.6f, 5.6f};
+volatile float g_input[3 * 12] = {9.8f, 0.1f,  0.2f, -9.7f, 0.2f, 0.1f,  0.1f,  9.9f,  0.3f,
+                                  0.2f, -9.8f, 0.1f, 0.1f,  0.2f, 9.9f,  0.3f,  0.1f,  -9.7f,
+                                  6.9f, 6.9f,  0.2f, -6.9f, 0.1f, 6.9f,  0.2f,  -6.8f, -6.9f,
+                                  5.7f, -5.6f, 5.7f, -5.6f, 5.7f, -5.7f, -5.7f, -5.6f, 5.6f};
 
 }  // namespace
 

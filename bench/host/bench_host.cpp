@@ -14,9 +14,10 @@ imucal::PoseStore<Scalar, 40> make_poses() {
   const auto truth = imucal::sim::draw_accel_truth(spec, rng, 9.81);
   imucal::PoseStore<Scalar, 40> poses;
   while (!poses.full())
-    poses.add(imucal::sim::noisy_pose_mean(truth, spec, imucal::sim::random_direction(rng), 300, rng)
-                  .template cast<Scalar>(),
-              300);
+    poses.add(
+        imucal::sim::noisy_pose_mean(truth, spec, imucal::sim::random_direction(rng), 300, rng)
+            .template cast<Scalar>(),
+        300);
   return poses;
 }
 

@@ -6,7 +6,9 @@
 #include <cstdio>
 
 extern "C" {
-__attribute__((noinline, used)) inline void imucal_bench_begin() { __asm volatile("" ::: "memory"); }
+__attribute__((noinline, used)) inline void imucal_bench_begin() {
+  __asm volatile("" ::: "memory");
+}
 __attribute__((noinline, used)) inline void imucal_bench_end() { __asm volatile("" ::: "memory"); }
 }
 

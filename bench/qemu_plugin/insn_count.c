@@ -38,98 +38,93 @@
 #define QEMU_PLUGIN_EXPORT __attribute__((visibility("default")))
 typedef uint64_t qemu_plugin_id_t;
 typedef struct qemu_info_t {
-    const char *target_name;
-    struct { int min; int cur; } version;
-    bool system_emulation;
-    union { struct { int smp_vcpus; int max_vcpus; } system; };
+  const char* target_name;
+  struct {
+    int min;
+    int cur;
+  } version;
+  bool system_emulation;
+  union {
+    struct {
+      int smp_vcpus;
+      int max_vcpus;
+    } system;
+  };
 } qemu_info_t;
 struct qemu_plugin_tb;
 struct qemu_plugin_insn;
-enum qemu_plugin_cb_flags { QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_CB_R_REGS,
-                            QEMU_PLUGIN_CB_RW_REGS };
+enum qemu_plugin_cb_flags { QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_CB_R_REGS, QEMU_PLUGIN_CB_RW_REGS };
 enum qemu_plugin_op { QEMU_PLUGIN_INLINE_ADD_U64 };
-typedef void (*qemu_plugin_udata_cb_t)(qemu_plugin_id_t id, void *userdata);
-typedef void (*qemu_plugin_vcpu_udata_cb_t)(unsigned int vcpu_index, void *userdata);
-typedef void (*qemu_plugin_vcpu_tb_trans_cb_t)(qemu_plugin_id_t id,
-                                               struct qemu_plugin_tb *tb);
-void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id,
-                                           qemu_plugin_vcpu_tb_trans_cb_t cb);
-void qemu_plugin_register_vcpu_insn_exec_cb(struct qemu_plugin_insn *insn,
+typedef void (*qemu_plugin_udata_cb_t)(qemu_plugin_id_t id, void* userdata);
+typedef void (*qemu_plugin_vcpu_udata_cb_t)(unsigned int vcpu_index, void* userdata);
+typedef void (*qemu_plugin_vcpu_tb_trans_cb_t)(qemu_plugin_id_t id, struct qemu_plugin_tb* tb);
+void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id, qemu_plugin_vcpu_tb_trans_cb_t cb);
+void qemu_plugin_register_vcpu_insn_exec_cb(struct qemu_plugin_insn* insn,
                                             qemu_plugin_vcpu_udata_cb_t cb,
-                                            enum qemu_plugin_cb_flags flags,
-                                            void *userdata);
-void qemu_plugin_register_vcpu_insn_exec_inline(struct qemu_plugin_insn *insn,
-                                                enum qemu_plugin_op op,
-                                                void *ptr, uint64_t imm);
-size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb *tb);
-struct qemu_plugin_insn *qemu_plugin_tb_get_insn(const struct qemu_plugin_tb *tb,
-                                                 size_t idx);
-uint64_t qemu_plugin_insn_vaddr(const struct qemu_plugin_insn *insn);
-void qemu_plugin_outs(const char *string);
+                                            enum qemu_plugin_cb_flags flags, void* userdata);
+void qemu_plugin_register_vcpu_insn_exec_inline(struct qemu_plugin_insn* insn,
+                                                enum qemu_plugin_op op, void* ptr, uint64_t imm);
+size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb* tb);
+struct qemu_plugin_insn* qemu_plugin_tb_get_insn(const struct qemu_plugin_tb* tb, size_t idx);
+uint64_t qemu_plugin_insn_vaddr(const struct qemu_plugin_insn* insn);
+void qemu_plugin_outs(const char* string);
 QEMU_PLUGIN_EXPORT int qemu_plugin_version = 1; /* QEMU_PLUGIN_VERSION */
 /* ---- end of API subset ---- */
 
 static uint64_t begin_addr, end_addr;
-static uint64_t insn_count;  /* running count, bumped inline (single vCPU) */
-static uint64_t snapshot;    /* insn_count at the latest begin marker */
+static uint64_t insn_count; /* running count, bumped inline (single vCPU) */
+static uint64_t snapshot;   /* insn_count at the latest begin marker */
 static bool in_region;
 
-static void on_begin(unsigned int vcpu, void *udata)
-{
-    (void)vcpu; (void)udata;
-    snapshot = insn_count;
-    in_region = true;
+static void on_begin(unsigned int vcpu, void* udata) {
+  (void)vcpu;
+  (void)udata;
+  snapshot = insn_count;
+  in_region = true;
 }
 
-static void on_end(unsigned int vcpu, void *udata)
-{
-    char line[48];
-    (void)vcpu; (void)udata;
-    if (!in_region)
-        return;
-    in_region = false;
-    snprintf(line, sizeof line, "insn_count %" PRIu64 "\n", insn_count - snapshot);
-    qemu_plugin_outs(line);
+static void on_end(unsigned int vcpu, void* udata) {
+  char line[48];
+  (void)vcpu;
+  (void)udata;
+  if (!in_region) return;
+  in_region = false;
+  snprintf(line, sizeof line, "insn_count %" PRIu64 "\n", insn_count - snapshot);
+  qemu_plugin_outs(line);
 }
 
-static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
-{
-    size_t n = qemu_plugin_tb_n_insns(tb);
-    (void)id;
-    for (size_t i = 0; i < n; i++) {
-        struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
-        uint64_t pc = qemu_plugin_insn_vaddr(insn);
-        /* Same registration order for both markers => same cb/inline order. */
-        if (pc == begin_addr)
-            qemu_plugin_register_vcpu_insn_exec_cb(insn, on_begin,
-                                                   QEMU_PLUGIN_CB_NO_REGS, NULL);
-        else if (pc == end_addr)
-            qemu_plugin_register_vcpu_insn_exec_cb(insn, on_end,
-                                                   QEMU_PLUGIN_CB_NO_REGS, NULL);
-        qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64,
-                                                   &insn_count, 1);
-    }
+static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb* tb) {
+  size_t n = qemu_plugin_tb_n_insns(tb);
+  (void)id;
+  for (size_t i = 0; i < n; i++) {
+    struct qemu_plugin_insn* insn = qemu_plugin_tb_get_insn(tb, i);
+    uint64_t pc = qemu_plugin_insn_vaddr(insn);
+    /* Same registration order for both markers => same cb/inline order. */
+    if (pc == begin_addr)
+      qemu_plugin_register_vcpu_insn_exec_cb(insn, on_begin, QEMU_PLUGIN_CB_NO_REGS, NULL);
+    else if (pc == end_addr)
+      qemu_plugin_register_vcpu_insn_exec_cb(insn, on_end, QEMU_PLUGIN_CB_NO_REGS, NULL);
+    qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, &insn_count, 1);
+  }
 }
 
-QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id,
-                                           const qemu_info_t *info,
-                                           int argc, char **argv)
-{
-    (void)info;
-    for (int i = 0; i < argc; i++) {
-        if (strncmp(argv[i], "begin=", 6) == 0)
-            begin_addr = strtoull(argv[i] + 6, NULL, 0) & ~1ULL;
-        else if (strncmp(argv[i], "end=", 4) == 0)
-            end_addr = strtoull(argv[i] + 4, NULL, 0) & ~1ULL;
-        else {
-            fprintf(stderr, "insn_count: unknown argument '%s'\n", argv[i]);
-            return -1;
-        }
+QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t* info, int argc,
+                                           char** argv) {
+  (void)info;
+  for (int i = 0; i < argc; i++) {
+    if (strncmp(argv[i], "begin=", 6) == 0)
+      begin_addr = strtoull(argv[i] + 6, NULL, 0) & ~1ULL;
+    else if (strncmp(argv[i], "end=", 4) == 0)
+      end_addr = strtoull(argv[i] + 4, NULL, 0) & ~1ULL;
+    else {
+      fprintf(stderr, "insn_count: unknown argument '%s'\n", argv[i]);
+      return -1;
     }
-    if (!begin_addr || !end_addr || begin_addr == end_addr) {
-        fprintf(stderr, "insn_count: need distinct non-zero begin=0xADDR,end=0xADDR\n");
-        return -1;
-    }
-    qemu_plugin_register_vcpu_tb_trans_cb(id, on_tb_trans);
-    return 0;
+  }
+  if (!begin_addr || !end_addr || begin_addr == end_addr) {
+    fprintf(stderr, "insn_count: need distinct non-zero begin=0xADDR,end=0xADDR\n");
+    return -1;
+  }
+  qemu_plugin_register_vcpu_tb_trans_cb(id, on_tb_trans);
+  return 0;
 }

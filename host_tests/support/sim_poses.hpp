@@ -25,7 +25,8 @@ inline SimulatedPoses simulate_poses(const sim::AccelSensorSpec& spec, std::uint
   SimulatedPoses out{sim::draw_accel_truth(spec, rng), {}};
   for (int i = 0; i < count; ++i) {
     const auto n = static_cast<std::uint32_t>(150 + rng.next() % 251);
-    const Vector3<double> m = sim::noisy_pose_mean(out.truth, spec, sim::random_direction(rng), n, rng);
+    const Vector3<double> m =
+        sim::noisy_pose_mean(out.truth, spec, sim::random_direction(rng), n, rng);
     out.poses.add(m.cast<float>().cast<double>(), n);
   }
   return out;
@@ -43,7 +44,8 @@ DoubleStore poses_from_directions(const sim::AccelTruth& truth, const sim::Accel
                                   const Vector3<double> (&dirs)[M], std::uint64_t seed) {
   sim::Random rng(seed);
   DoubleStore out;
-  for (const Vector3<double>& d : dirs) out.add(sim::noisy_pose_mean(truth, spec, d, 200, rng), 200);
+  for (const Vector3<double>& d : dirs)
+    out.add(sim::noisy_pose_mean(truth, spec, d, 200, rng), 200);
   return out;
 }
 

@@ -10,7 +10,8 @@ namespace imucal::test {
 
 std::string find_xsens_dir() {
   const char* env = std::getenv("IMUCAL_XSENS_DIR");
-  for (const std::string& dir : {std::string(env ? env : ""), std::string("../shared/data/xsens")}) {
+  for (const std::string& dir :
+       {std::string(env ? env : ""), std::string("../shared/data/xsens")}) {
     if (dir.empty()) continue;
     std::ifstream probe(dir + "/xsens_acc.mat");
     if (probe.good()) return dir;

@@ -30,8 +30,9 @@ struct AccelSettings {
 
 template <typename Scalar>
 struct AccelCalibration {
-  AccelVector<Scalar> params = AccelVector<Scalar>::Zero();  // seed order, sensor units in, m/s^2 out
-  AccelVector<Scalar> sigma = AccelVector<Scalar>::Zero();   // one standard deviation each
+  AccelVector<Scalar> params =
+      AccelVector<Scalar>::Zero();  // seed order, sensor units in, m/s^2 out
+  AccelVector<Scalar> sigma = AccelVector<Scalar>::Zero();  // one standard deviation each
   Scalar residual_rms = Scalar(0);  // m/s^2: sample-weighted RMS of |g| - |a_cal| over poses
   int poses = 0;
   int iterations = 0;
@@ -47,7 +48,7 @@ class AccelSolver {
   explicit AccelSolver(const AccelSettings<Scalar>& settings = AccelSettings<Scalar>());
 
   Status start(PoseSpan<Scalar> poses);
-  Status step();                              // kRunning while more steps are needed
+  Status step();                                       // kRunning while more steps are needed
   Status finish(AccelCalibration<Scalar>& out) const;  // the final status, out filled if usable
   Status status() const { return status_; }
   int iterations() const { return lm_.iterations(); }

@@ -36,7 +36,7 @@ template <typename Scalar>
 Matrix3<Scalar> accel_matrix(const AccelVector<Scalar>& p) {
   Matrix3<Scalar> m;
   m << p(kScaleX), -p(kAlphaYz) * p(kScaleY), p(kAlphaZy) * p(kScaleZ),  //
-      Scalar(0), p(kScaleY), -p(kAlphaZx) * p(kScaleZ),                   //
+      Scalar(0), p(kScaleY), -p(kAlphaZx) * p(kScaleZ),                  //
       Scalar(0), Scalar(0), p(kScaleZ);
   return m;
 }

@@ -113,7 +113,7 @@ class LevenbergMarquardt {
  private:
   Status check_gradient() const {
     return current_.gradient_cosine() <= settings_.gradient_tolerance ? Status::kConvergedGradient
-                                                                       : Status::kRunning;
+                                                                      : Status::kRunning;
   }
 
   bool small_step(const Vector& delta) const {

@@ -4,8 +4,8 @@
 // of rows. Never allocates (fixed-size Eigen only), never throws, never returns NaN as a result.
 #pragma once
 
-#include <Eigen/Core>
 #include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -65,7 +65,7 @@ class NormalEquations {
   }
 
   int rows() const { return rows_; }
-  Scalar weighted_sse() const { return f_; }  // f = sum w e^2
+  Scalar weighted_sse() const { return f_; }     // f = sum w e^2
   const Vector& gradient() const { return v_; }  // v = sum w J^T e (half the gradient of f)
 
   Scalar h(int r, int c) const {  // element of H, either triangle

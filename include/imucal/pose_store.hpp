@@ -14,8 +14,8 @@ namespace imucal {
 
 template <typename Scalar>
 struct Pose {
-  Vector3<Scalar> mean;     // mean raw accelerometer reading over the rest (sensor units)
-  std::uint32_t samples;    // number of samples averaged (the pose's weight)
+  Vector3<Scalar> mean;   // mean raw accelerometer reading over the rest (sensor units)
+  std::uint32_t samples;  // number of samples averaged (the pose's weight)
 };
 
 template <typename Scalar>

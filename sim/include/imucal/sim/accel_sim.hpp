@@ -14,16 +14,14 @@
 namespace imucal::sim {
 
 struct AccelSensorSpec {
-  double nominal_scale;    // sensor-to-m/s^2 factor (1 for SI, 1/415 for xsens-like counts)
-  double nominal_bias;     // added to the raw reading (-32768 for unsigned 16-bit counts)
-  double scale_spread;     // relative, uniform +-
-  double bias_spread;      // sensor units, uniform +-
-  double misalignment;     // rad, uniform +-
-  double noise;            // per-sample white noise, sensor units
+  double nominal_scale;  // sensor-to-m/s^2 factor (1 for SI, 1/415 for xsens-like counts)
+  double nominal_bias;   // added to the raw reading (-32768 for unsigned 16-bit counts)
+  double scale_spread;   // relative, uniform +-
+  double bias_spread;    // sensor units, uniform +-
+  double misalignment;   // rad, uniform +-
+  double noise;          // per-sample white noise, sensor units
   static AccelSensorSpec si() { return {1.0, 0.0, 0.05, 0.3, 0.02, 0.015}; }
-  static AccelSensorSpec raw_counts() {
-    return {1.0 / 415.0, -32768.0, 0.05, 300.0, 0.02, 3.3};
-  }
+  static AccelSensorSpec raw_counts() { return {1.0 / 415.0, -32768.0, 0.05, 300.0, 0.02, 3.3}; }
 };
 
 struct AccelTruth {

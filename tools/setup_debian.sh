@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs what imucal needs on Debian 12 (host build, Arm cross toolchain with picolibc, QEMU).
+# Uses sudo when not root. Idempotent: skips apt-get when everything is already there.
+set -euo pipefail
+packages=(cmake ninja-build g++ libeigen3-dev googletest libgtest-dev libbenchmark-dev
+  clang-format gcc-arm-none-eabi picolibc-arm-none-eabi libstdc++-arm-none-eabi-picolibc
+  qemu-system-arm)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  echo "installing: ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
