@@ -38,7 +38,7 @@ PoseStore<Scalar, 64> pose_means(const Recording& rec) {
   PoseStore<Scalar, 64> store;
   for (const test::Interval& iv : rec.still) {
     Vector3<double> sum = Vector3<double>::Zero();
-    for (std::size_t i = iv.begin; i < iv.end; ++i) sum += rec.acc[i].v;
+    for (std::size_t i = iv.begin; i < iv.end; ++i) sum += rec.acc[i].v.cast<double>();
     store.add((sum / static_cast<double>(iv.end - iv.begin)).cast<Scalar>(),
               static_cast<std::uint32_t>(iv.end - iv.begin));
   }
@@ -55,11 +55,11 @@ Residuals residuals(const Recording& rec, const AccelVector<double>& p) {
   std::size_t n = 0;
   for (const test::Interval& iv : rec.still) {
     Vector3<double> mean = Vector3<double>::Zero();
-    for (std::size_t i = iv.begin; i < iv.end; ++i) mean += rec.acc[i].v;
+    for (std::size_t i = iv.begin; i < iv.end; ++i) mean += rec.acc[i].v.cast<double>();
     mean /= static_cast<double>(iv.end - iv.begin);
     const Vector3<double> up = accel_apply(p, mean).normalized();
     for (std::size_t i = iv.begin; i < iv.end; ++i) {
-      const Vector3<double> c = accel_apply(p, rec.acc[i].v);
+      const Vector3<double> c = accel_apply(p, Vector3<double>(rec.acc[i].v.cast<double>()));
       const double r = kGravity - c.norm();
       const double along = up.dot(c - accel_apply(p, mean));
       sum += r * r;

@@ -9,12 +9,19 @@
 namespace imucal::test {
 
 std::string find_xsens_dir() {
+#ifdef IMUCAL_XSENS_DEFAULT_DIR
+  const char* built_in = IMUCAL_XSENS_DEFAULT_DIR;
+#else
+  const char* built_in = "";
+#endif
   const char* env = std::getenv("IMUCAL_XSENS_DIR");
-  for (const std::string& dir :
-       {std::string(env ? env : ""), std::string("../shared/data/xsens")}) {
-    if (dir.empty()) continue;
-    std::ifstream probe(dir + "/xsens_acc.mat");
-    if (probe.good()) return dir;
+  for (const char* dir : {env, built_in, "../shared/data/xsens"}) {
+    if (dir == nullptr || *dir == '\0') continue;
+    const std::string path = std::string(dir) + "/xsens_acc.mat";
+    if (std::FILE* f = std::fopen(path.c_str(), "r")) {
+      std::fclose(f);
+      return dir;
+    }
   }
   return {};
 }
@@ -25,6 +32,7 @@ bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& e
     error = path + ": cannot open";
     return false;
   }
+  out.reserve(out.size() + 60000);
   std::string line;
   std::size_t lineno = 0;
   while (std::getline(in, line)) {
@@ -45,15 +53,17 @@ std::vector<Interval> detect_still(const std::vector<Sample>& acc, double init_s
   auto variance_norm = [&](std::size_t b, std::size_t e) {
     Vector3<double> m = Vector3<double>::Zero(), q = Vector3<double>::Zero();
     for (std::size_t i = b; i < e; ++i) {
-      m += acc[i].v;
-      q += acc[i].v.cwiseProduct(acc[i].v);
+      const Vector3<double> v = acc[i].v.cast<double>();
+      m += v;
+      q += v.cwiseProduct(v);
     }
     const double n = static_cast<double>(e - b);
     m /= n;
     return (q / n - m.cwiseProduct(m)).norm();
   };
   std::size_t init_end = 0;
-  while (init_end < acc.size() && acc[init_end].t - acc[0].t < init_seconds) ++init_end;
+  while (init_end < acc.size() && acc[init_end].t - acc[0].t < static_cast<float>(init_seconds))
+    ++init_end;
   const double threshold = k * variance_norm(0, init_end);
 
   const std::size_t w = static_cast<std::size_t>(half_window);

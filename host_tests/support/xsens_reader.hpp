@@ -10,9 +10,11 @@
 
 namespace imucal::test {
 
+// 16 bytes, so the 51,175-sample recording fits the 2-4 MB RAM of the simulated boards. Raw
+// counts are integers below 65536: exact in float.
 struct Sample {
-  double t;
-  Vector3<double> v;
+  float t;
+  Vector3<float> v;
 };
 
 struct Interval {

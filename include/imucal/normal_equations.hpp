@@ -185,10 +185,10 @@ class NormalEquations {
     return Status::kOk;
   }
 
-  Scalar h_[static_cast<std::size_t>(kPackedSize)];
-  Vector v_;
-  Scalar f_;
-  int rows_;
+  Scalar h_[static_cast<std::size_t>(kPackedSize)] = {};
+  Vector v_ = Vector::Zero();
+  Scalar f_ = Scalar(0);
+  int rows_ = 0;
 };
 
 }  // namespace imucal
