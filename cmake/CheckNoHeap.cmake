@@ -6,14 +6,26 @@ execute_process(COMMAND ${NM} ${ELF} OUTPUT_VARIABLE symbols)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "nm failed on ${ELF}")
 endif()
-set(forbidden malloc free calloc realloc aligned_alloc posix_memalign memalign _malloc_r _free_r
-    _Znwj _Znaj _Znwm _Znam _ZdlPv _ZdaPv __cxa_allocate_exception __cxa_throw)
+# Exact names, then prefixes that cover every operator new/delete form (sized, array, nothrow,
+# aligned) in both the 32-bit (j) and 64-bit (m) manglings.
+set(forbidden malloc free calloc realloc aligned_alloc posix_memalign memalign valloc _malloc_r
+    _free_r _calloc_r _realloc_r sbrk _sbrk __cxa_allocate_exception __cxa_throw
+    __cxa_guard_acquire __cxa_guard_release)
+set(forbidden_prefixes _Znw _Zna _Zdl _Zda)
 set(found "")
 foreach(sym IN LISTS forbidden)
   string(REGEX MATCH "[ \t][TtWwUu][ \t]+${sym}\n" hit "${symbols}")
   if(hit)
     list(APPEND found ${sym})
   endif()
+endforeach()
+foreach(prefix IN LISTS forbidden_prefixes)
+  string(REGEX MATCHALL "[ \t][TtWwUu][ \t]+${prefix}[A-Za-z0-9_]*\n" hits "${symbols}")
+  foreach(hit IN LISTS hits)
+    string(REGEX REPLACE "^.*[ \t]" "" hit "${hit}")
+    string(STRIP "${hit}" hit)
+    list(APPEND found "${hit}")
+  endforeach()
 endforeach()
 if(found)
   message(FATAL_ERROR "${ELF} links heap symbols: ${found}")

@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "imucal/accel_calibration.hpp"
+#include "imucal/levenberg_marquardt.hpp"
 #include "support/gtest_status.hpp"
 #include "support/sim_poses.hpp"
 
@@ -236,6 +237,84 @@ TEST(AccelCalibration, TimeSlicedSolveEqualsTheOneShotSolve) {
   EXPECT_GE(slices, 1);
 }
 
+// The closed-form start is usually already at the optimum, so the tests above barely exercise
+// the LM. Here it must do the work: from starts perturbed by up to 5 % (and 0.05 rad, 0.05 g),
+// in float and double, it converges in several iterations to the reference optimum (within 0.1
+// sigma), and the cost never increases between iterations.
+template <typename Scalar, typename Store>
+void expect_lm_recovers_from(const Store& poses, double gravity,
+                             const AccelCalibration<double>& ref, std::uint64_t seed) {
+  AccelSettings<Scalar> settings = settings_for<Scalar>(gravity);
+  typename AccelSolver<Scalar>::Problem problem;
+  problem.poses = poses.span();
+  Scalar scale = 1;
+  ASSERT_EQ(check_poses(poses.span(), settings, problem.centre, scale), Status::kOk);
+  problem.scale = scale;
+  AccelVector<Scalar> p0;
+  ASSERT_EQ(fit_ellipsoid(poses.span(), problem.centre, scale, p0), Status::kOk);
+  sim::Random rng(seed);
+  for (int k = 0; k < kAccelParams; ++k) p0(k) += static_cast<Scalar>(0.05 * rng.uniform(-1, 1));
+
+  LevenbergMarquardt<Scalar, kAccelParams> lm(settings.lm);
+  Status s = lm.start(problem, p0);
+  Scalar last = lm.normal_equations().weighted_sse();
+  while (s == Status::kRunning) {
+    s = lm.step(problem);
+    EXPECT_LE(lm.normal_equations().weighted_sse(), last);
+    last = lm.normal_equations().weighted_sse();
+  }
+  ASSERT_TRUE(succeeded(s)) << to_string(s);
+  EXPECT_GE(lm.iterations(), 3);
+  for (int k = 0; k < kAccelParams; ++k) {
+    // Back to sensor units (as AccelSolver::finish does) and against the reference.
+    double v = static_cast<double>(lm.parameters()(k));
+    if (k >= kScaleX && k < kBiasX) v *= gravity / static_cast<double>(scale);
+    if (k >= kBiasX)
+      v = static_cast<double>(scale) * v - static_cast<double>(problem.centre(k - kBiasX));
+    EXPECT_LT(std::abs(v - ref.params(k)), 0.1 * ref.sigma(k)) << kNames[k];
+  }
+}
+
+TEST(AccelCalibration, LevenbergMarquardtConvergesFromPerturbedStarts) {
+  for (const auto& spec : {sim::AccelSensorSpec::si(), sim::AccelSensorSpec::raw_counts()}) {
+    for (std::uint64_t seed = 600; seed < 605; ++seed) {
+      const test::SimulatedPoses sim = simulate_poses(spec, seed);
+      AccelCalibration<double> ref;
+      ASSERT_TRUE(succeeded(
+          calibrate_accelerometer(sim.poses.span(), settings_for<double>(sim.truth.gravity), ref)));
+      expect_lm_recovers_from<double>(sim.poses, sim.truth.gravity, ref, seed);
+      expect_lm_recovers_from<float>(to_float(sim.poses), sim.truth.gravity, ref, seed);
+    }
+  }
+}
+
+// Poses are weighted by their sample count: 12 long rests (10000 samples) and 12 short ones (10
+// samples, 30 times the noise on their mean). Unweighted, the short rests would pull the
+// estimate many sigma away; weighted, it stays within 3 sigma of the truth.
+TEST(AccelCalibration, PosesAreWeightedBySampleCount) {
+  const sim::AccelSensorSpec spec = sim::AccelSensorSpec::si();
+  sim::Random rng(700);
+  const sim::AccelTruth truth = sim::draw_accel_truth(spec, rng);
+  DoubleStore poses, short_only;
+  for (int i = 0; i < 24; ++i) {
+    const std::uint32_t n = i % 2 == 0 ? 10000u : 10u;
+    const Vector3<double> m = sim::noisy_pose_mean(truth, spec, sim::random_direction(rng), n, rng);
+    poses.add(m, n);
+    if (n == 10u) short_only.add(m, n);
+  }
+  AccelCalibration<double> out, short_out;
+  ASSERT_TRUE(
+      succeeded(calibrate_accelerometer(poses.span(), settings_for<double>(truth.gravity), out)));
+  ASSERT_TRUE(succeeded(
+      calibrate_accelerometer(short_only.span(), settings_for<double>(truth.gravity), short_out)));
+  for (int k = 0; k < kAccelParams; ++k) {
+    EXPECT_LT(std::abs(out.params(k) - truth.params(k)), 3.0 * out.sigma(k)) << kNames[k];
+    // Weighted, the long rests set the precision (~30x better than the short ones); an
+    // unweighted fit would be about as uncertain as the short rests alone.
+    EXPECT_LT(out.sigma(k), 0.2 * short_out.sigma(k)) << kNames[k];
+  }
+}
+
 // --- Degenerate input: a specific status, never a NaN. ---
 
 template <typename Store>
@@ -248,9 +327,12 @@ AccelCalibration<double> expect_status(const Store& poses, Status expected) {
   return out;
 }
 
-TEST(AccelDegenerate, FewerThanNinePoses) {
+TEST(AccelDegenerate, FewerThanTenPoses) {
   const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 400, 8);
   expect_status(sim.poses, Status::kTooFewPoses);
+  // Nine poses would fit the nine parameters exactly, leaving no residual for a sigma.
+  const test::SimulatedPoses nine = simulate_poses(sim::AccelSensorSpec::si(), 401, 9);
+  expect_status(nine.poses, Status::kTooFewPoses);
   DoubleStore empty;
   expect_status(empty, Status::kTooFewPoses);
 }
@@ -279,6 +361,39 @@ TEST(AccelDegenerate, AllPosesInOnePlane) {
                 Status::kPosesCoplanar);
 }
 
+TEST(AccelDegenerate, AFailedSolveLeavesNoStaleEstimate) {
+  const test::SimulatedPoses good = simulate_poses(sim::AccelSensorSpec::si(), 405, 20);
+  AccelCalibration<double> out;
+  ASSERT_TRUE(
+      succeeded(calibrate_accelerometer(good.poses.span(), settings_for<double>(9.80665), out)));
+  const test::SimulatedPoses few = simulate_poses(sim::AccelSensorSpec::si(), 406, 8);
+  EXPECT_EQ(calibrate_accelerometer(few.poses.span(), settings_for<double>(9.80665), out),
+            Status::kTooFewPoses);
+  EXPECT_EQ(out.params, AccelVector<double>::Zero());
+  EXPECT_EQ(out.sigma, AccelVector<double>::Zero());
+  EXPECT_EQ(out.residual_rms, 0.0);
+  EXPECT_EQ(out.status, Status::kTooFewPoses);
+}
+
+TEST(AccelDegenerate, AQuadricThatIsNotAnEllipsoid) {
+  // Points in general position on the hyperboloid x^2 + y^2/2.25 - z^2/4 = 1: spread in 3-D and
+  // determining a unique quadric, but no ellipsoid.
+  DoubleStore poses;
+  sim::Random rng(450);
+  for (int i = 0; i < 20; ++i) {
+    const double a = rng.uniform(0.0, 6.283), z = rng.uniform(-1.5, 1.5);
+    const double r = std::sqrt(1.0 + z * z / 4.0);
+    poses.add(Vector3<double>(r * std::cos(a), 1.5 * r * std::sin(a), z), 100);
+  }
+  Vector3<double> centre;
+  double scale = 0;
+  ASSERT_EQ(check_poses(poses.span(), settings_for<double>(1.0), centre, scale), Status::kOk);
+  AccelVector<double> p = AccelVector<double>::Constant(7.0);
+  EXPECT_EQ(fit_ellipsoid(poses.span(), centre, scale, p), Status::kNotAnEllipsoid);
+  EXPECT_EQ(p, AccelVector<double>::Constant(7.0));
+  expect_status(poses, Status::kNotAnEllipsoid);
+}
+
 TEST(AccelDegenerate, TwoConesAboutOneAxisAreNotObservable) {
   // Not coplanar, but two circles on the sphere do not pin down an ellipsoid.
   sim::Random rng(410);
@@ -294,10 +409,7 @@ TEST(AccelDegenerate, TwoConesAboutOneAxisAreNotObservable) {
   const Status s = calibrate_accelerometer(
       test::poses_from_directions(truth, sim::AccelSensorSpec::si(), dirs, 411).span(),
       settings_for<double>(truth.gravity), out);
-  EXPECT_FALSE(succeeded(s)) << to_string(s);
-  EXPECT_TRUE(s == Status::kIllConditioned || s == Status::kRankDeficient ||
-              s == Status::kNotAnEllipsoid || s == Status::kUnobservable)
-      << to_string(s);
+  EXPECT_EQ(s, Status::kUnobservable);
   expect_no_nan(out);
 }
 

@@ -35,14 +35,6 @@ struct ExpDecay {
   }
 };
 
-// A problem whose residuals turn NaN for x > 2: the driver must reject such steps.
-struct NanBeyondTwo {
-  Status accumulate(const Eigen::Matrix<double, 1, 1>& p, NormalEquations<double, 1>& ne) const {
-    const double e = p(0) > 2.0 ? std::numeric_limits<double>::quiet_NaN() : p(0) - 5.0;
-    return ne.add(Eigen::Matrix<double, 1, 1>(1.0), e);
-  }
-};
-
 TEST(LevenbergMarquardt, SolvesRosenbrockInDoubleAndFloat) {
   LevenbergMarquardt<double, 2> lm;
   EXPECT_TRUE(succeeded(lm.run(Rosenbrock{}, Eigen::Vector2d(-1.2, 1.0))));
@@ -97,13 +89,74 @@ TEST(LevenbergMarquardt, StoppingReasons) {
   EXPECT_EQ(bad_settings.run(Rosenbrock{}, Eigen::Vector2d(0, 0)), Status::kInvalidArgument);
 }
 
-TEST(LevenbergMarquardt, NeverAcceptsAStepIntoNaN) {
-  LevenbergMarquardt<double, 1> lm;
-  const Status s = lm.run(NanBeyondTwo{}, Eigen::Matrix<double, 1, 1>(0.0));
+// The minimum (x = 5) lies beyond a wall of NaN at x = 2: the driver creeps up to the wall with
+// ever more damping. Those shrinking steps must not be reported as convergence, in either type.
+template <typename Scalar>
+struct NanBeyondTwo {
+  using V = Eigen::Matrix<Scalar, 1, 1>;
+  Status accumulate(const V& p, NormalEquations<Scalar, 1>& ne) const {
+    const Scalar e = p(0) > Scalar(2) ? std::numeric_limits<Scalar>::quiet_NaN() : p(0) - Scalar(5);
+    return ne.add(V(Scalar(1)), e);
+  }
+};
+
+template <typename Scalar>
+void expect_not_converged_at_the_wall() {
+  LevenbergMarquardt<Scalar, 1> lm;
+  const Status s = lm.run(NanBeyondTwo<Scalar>{}, Eigen::Matrix<Scalar, 1, 1>(Scalar(0)));
   EXPECT_FALSE(succeeded(s)) << to_string(s);
+  EXPECT_TRUE(s == Status::kMaxIterations || s == Status::kNoProgress) << to_string(s);
   EXPECT_TRUE(std::isfinite(lm.parameters()(0)));
-  EXPECT_LE(lm.parameters()(0), 2.0);
+  EXPECT_LE(lm.parameters()(0), Scalar(2));
   EXPECT_TRUE(std::isfinite(lm.normal_equations().weighted_sse()));
+}
+
+TEST(LevenbergMarquardt, NeverAcceptsAStepIntoNaNNorCallsTheWallConvergence) {
+  expect_not_converged_at_the_wall<double>();
+  expect_not_converged_at_the_wall<float>();
+}
+
+// A Jacobian of the wrong sign: every step raises the cost, damping runs out: kNoProgress.
+struct WrongSign {
+  Status accumulate(const Eigen::Vector2d& p, NormalEquations<double, 2>& ne) const {
+    Status s = ne.add(Eigen::Vector2d(-1.0, 0.0), p(0) - 3.0);
+    if (s != Status::kOk) return s;
+    return ne.add(Eigen::Vector2d(0.0, -1.0), p(1) + 1.0);
+  }
+};
+
+TEST(LevenbergMarquardt, AProblemThatCannotDecreaseReportsNoProgress) {
+  LmSettings<double> settings;
+  settings.max_iterations = 100;
+  LevenbergMarquardt<double, 2> lm(settings);
+  EXPECT_EQ(lm.run(WrongSign{}, Eigen::Vector2d(0.0, 0.0)), Status::kNoProgress);
+  EXPECT_EQ(lm.parameters(), Eigen::Vector2d(0.0, 0.0));
+}
+
+// Residuals that overflow float: refused, never summed into an infinite cost.
+struct Overflowing {
+  Status accumulate(const Eigen::Vector2f& p, NormalEquations<float, 2>& ne) const {
+    return ne.add(Eigen::Vector2f(1.0f, 1.0f), 1e20f + p(0));
+  }
+};
+
+TEST(LevenbergMarquardt, AnOverflowingCostIsRefusedNotConverged) {
+  LevenbergMarquardt<float, 2> lm;
+  EXPECT_EQ(lm.run(Overflowing{}, Eigen::Vector2f(0.0f, 0.0f)), Status::kNonFiniteInput);
+  EXPECT_TRUE(std::isfinite(lm.normal_equations().weighted_sse()));
+}
+
+// A parameter nothing depends on: the damped solve cannot cure it, so the run ends at once.
+struct Unobservable {
+  Status accumulate(const Eigen::Vector2d& p, NormalEquations<double, 2>& ne) const {
+    return ne.add(Eigen::Vector2d(1.0, 0.0), p(0) - 1.0);
+  }
+};
+
+TEST(LevenbergMarquardt, ARankDeficientProblemStopsWithThatReason) {
+  LevenbergMarquardt<double, 2> lm;
+  EXPECT_EQ(lm.run(Unobservable{}, Eigen::Vector2d(0.0, 0.0)), Status::kRankDeficient);
+  EXPECT_EQ(lm.iterations(), 1);
 }
 
 }  // namespace

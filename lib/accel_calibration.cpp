@@ -20,7 +20,8 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
     if (!all_finite(poses[i].mean)) return Status::kNonFiniteInput;
     if (poses[i].samples == 0) return Status::kInvalidArgument;
   }
-  if (poses.size < kAccelParams) return Status::kTooFewPoses;
+  // A covariance needs more residuals than parameters: 9 poses would fit exactly, with no sigma.
+  if (poses.size < kAccelMinPoses) return Status::kTooFewPoses;
 
   // Centre on the mean of the means, shifted by the first pose so float sums stay small.
   const Vector3<Scalar> origin = poses[0].mean;
@@ -47,7 +48,7 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
 
   // Spread without an eigen-solver (whose trigonometry costs ~3 KB of flash): for the scatter S
   // of the normalised means with eigenvalues l1 <= l2 <= l3, det / (m2 tr) with m2 the sum of the
-  // principal 2x2 minors lies within a factor 3 of l1 / l3, and is exactly 0 for coplanar poses.
+  // principal 2x2 minors lies between l1 / (9 l3) and l1 / l3, and is exactly 0 for coplanar poses.
   Matrix3<Scalar> scatter = Matrix3<Scalar>::Zero();
   for (int i = 0; i < poses.size; ++i) {
     const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
@@ -56,7 +57,7 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
   const Matrix3<Scalar>& m = scatter;
   const Scalar minors = m(0, 0) * m(1, 1) - m(0, 1) * m(0, 1) + m(0, 0) * m(2, 2) -
                         m(0, 2) * m(0, 2) + m(1, 1) * m(2, 2) - m(1, 2) * m(1, 2);
-  const Scalar spread = m.determinant() / (minors * m.trace());
+  const Scalar spread = m.determinant() / (minors * m.trace());  // in [l1/(9 l3), l1/l3]
   if (!std::isfinite(spread) || spread < settings.min_spread_ratio) return Status::kPosesCoplanar;
   return Status::kOk;
 }
@@ -130,6 +131,7 @@ AccelSolver<Scalar>::AccelSolver(const AccelSettings<Scalar>& settings)
 
 template <typename Scalar>
 Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
+  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(settings_.lm);
   problem_.poses = poses;
   problem_.centre.setZero();
   problem_.scale = Scalar(1);
@@ -138,7 +140,16 @@ Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
   AccelVector<Scalar> p0;
   s = fit_ellipsoid(poses, problem_.centre, problem_.scale, p0);
   if (s != Status::kOk) return status_ = s;
-  return status_ = lm_.start(problem_, p0);
+  s = lm_.start(problem_, p0);
+  if (s != Status::kRunning && !succeeded(s)) return status_ = s;
+  // Observability before iterating: the closed-form start is already close to the optimum, so
+  // sigma there shows whether the poses determine every parameter (a flat valley would
+  // otherwise only end at the iteration cap).
+  AccelVector<Scalar> sd;
+  const Status ss = lm_.normal_equations().standard_deviations(sd);
+  if (ss != Status::kOk) return status_ = ss;
+  if (!(sd.maxCoeff() <= settings_.max_normalised_sigma)) return status_ = Status::kUnobservable;
+  return status_ = s;
 }
 
 template <typename Scalar>
@@ -149,10 +160,12 @@ Status AccelSolver<Scalar>::step() {
 
 template <typename Scalar>
 Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
+  // Every path leaves `out` whole: the estimate only when usable, zeros and the reason otherwise.
+  out = AccelCalibration<Scalar>{};
   out.poses = problem_.poses.size;
   out.iterations = lm_.iterations();
   out.status = status_;
-  if (!succeeded(status_) && status_ != Status::kMaxIterations) return status_;
+  if (!succeeded(status_)) return status_;
 
   const AccelVector<Scalar>& pn = lm_.parameters();
   AccelVector<Scalar> sdn;
@@ -189,7 +202,7 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   out.params = p;
   out.sigma = sd;
   out.residual_rms = rms;
-  return status_;
+  return out.status;
 }
 
 template class AccelSolver<float>;

@@ -9,9 +9,13 @@ tools/setup_debian.sh
 echo "== clang-format"
 git ls-files '*.hpp' '*.cpp' '*.c' | xargs clang-format --dry-run -Werror
 
+# Where the real recording is beside the clone (always in CI), a test that cannot find it fails.
+require_xsens=OFF
+[ -f ../shared/data/xsens/xsens_acc.mat ] && require_xsens=ON
+
 for preset in host m4f m7 m33; do
   echo "== $preset: configure, build, test"
-  cmake --preset "$preset" >/dev/null
+  cmake --preset "$preset" -DIMUCAL_REQUIRE_XSENS=$require_xsens >/dev/null
   cmake --build --preset "$preset" 2>&1 | grep -E "error|warning|no-heap|text .* B" || true
   cmake --build --preset "$preset" >/dev/null  # fails the script if the build failed
   ctest --preset "$preset"

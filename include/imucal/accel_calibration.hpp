@@ -12,14 +12,18 @@
 
 namespace imucal {
 
+// Fewest poses accepted: one more than the parameters, so that every parameter gets a sigma.
+constexpr int kAccelMinPoses = kAccelParams + 1;
+
 template <typename Scalar>
 struct AccelSettings {
   Scalar gravity = Scalar(9.80665);  // m/s^2: local gravity magnitude, the calibrated norm
   // Two poses closer than this (as a fraction of the gravity radius, ~0.05 = 3 degrees) count
   // as one direction when checking that enough distinct directions were seen.
   Scalar min_pose_separation = Scalar(0.05);
-  // Smallest/largest spread of the pose directions (eigenvalue ratio) below which the poses
-  // count as one plane: the model is then not observable.
+  // Spread of the pose directions below which they count as one plane (the model is then not
+  // observable). The measure lies between l1/(9 l3) and l1/l3 for the eigenvalues l1 <= l3 of
+  // the directions' scatter: 1/9 for directions all round the sphere, 0 for one plane.
   Scalar min_spread_ratio = Scalar(1e-3);
   // Largest accepted standard deviation of any parameter in normalised units (misalignment in
   // rad, scale relative to nominal, bias as a fraction of gravity). Larger means the poses do not
@@ -48,8 +52,9 @@ class AccelSolver {
   explicit AccelSolver(const AccelSettings<Scalar>& settings = AccelSettings<Scalar>());
 
   Status start(PoseSpan<Scalar> poses);
-  Status step();                                       // kRunning while more steps are needed
-  Status finish(AccelCalibration<Scalar>& out) const;  // the final status, out filled if usable
+  Status step();  // kRunning while more steps are needed
+  // The final status. `out` holds the estimate only if succeeded(status); otherwise zeros.
+  Status finish(AccelCalibration<Scalar>& out) const;
   Status status() const { return status_; }
   int iterations() const { return lm_.iterations(); }
 
@@ -77,9 +82,8 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
                      AccelVector<Scalar>& p_normalised);
 
 // Checks that the poses can determine the 9 parameters: count, finiteness, distinct
-// directions, not all in one plane (min_spread_ratio: a scale-free measure within a factor 3 of
-// the smallest over the largest eigenvalue of the directions' scatter). Also returns the centre
-// and scale used to normalise.
+// directions, not all in one plane (see min_spread_ratio). Also returns the centre and scale
+// used to normalise.
 template <typename Scalar>
 Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
                    Vector3<Scalar>& centre, Scalar& scale);

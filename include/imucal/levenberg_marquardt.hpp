@@ -49,16 +49,16 @@ class LevenbergMarquardt {
     return status_ = check_gradient();
   }
 
-  // One iteration: at most one pass over the residuals and one N x N factorisation.
+  // One iteration: at most one pass over the residuals and one or two N x N factorisations.
+  // A step shrunk by heavy damping is never mistaken for convergence (see gauss_newton_done).
   template <class Problem>
   Status step(const Problem& problem) {
     if (status_ != Status::kRunning) return status_;
+    ++iterations_;
     Vector delta;
-    Status s = current_.solve_damped(lambda_, delta);
-    if (s == Status::kOk && small_step(delta)) {
-      ++iterations_;
-      return status_ = Status::kConvergedStep;
-    }
+    const Status s = current_.solve_damped(lambda_, delta);
+    // Damping is relative to diag(H): it cannot cure a column with no information.
+    if (s == Status::kRankDeficient) return status_ = s;
     if (s == Status::kOk) {
       const Scalar f0 = current_.weighted_sse();
       const Scalar predicted = current_.predicted_decrease(delta);
@@ -67,28 +67,29 @@ class LevenbergMarquardt {
       const Status ts = problem.accumulate(trial_p, trial_);
       const Scalar actual = f0 - trial_.weighted_sse();
       if (ts == Status::kOk && actual > Scalar(0)) {
+        const Scalar lambda_used = lambda_;
         p_ = trial_p;
         current_ = trial_;
         lambda_ = lambda_ / Scalar(10);
         if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
-        ++iterations_;
-        if (actual <= settings_.cost_tolerance * f0 &&
-            predicted <= Scalar(2) * settings_.cost_tolerance * f0)
-          return status_ = Status::kConvergedCost;
+        const bool tiny_step = small_step(delta);
+        const bool tiny_gain = actual <= settings_.cost_tolerance * f0 &&
+                               predicted <= Scalar(2) * settings_.cost_tolerance * f0;
+        // A heavily damped step is small for the wrong reason: then only the undamped
+        // Gauss-Newton step at the new point may confirm convergence.
+        if ((tiny_step || tiny_gain) && (lambda_used <= Scalar(1) || gauss_newton_done()))
+          return status_ = tiny_step ? Status::kConvergedStep : Status::kConvergedCost;
         status_ = check_gradient();
         if (status_ == Status::kRunning && iterations_ >= settings_.max_iterations)
           status_ = Status::kMaxIterations;
         return status_;
       }
-      // Rejected: nothing left to gain if the model itself predicts a negligible decrease.
-      if (ts == Status::kOk && predicted <= settings_.cost_tolerance * f0) {
-        ++iterations_;
-        return status_ = Status::kConvergedCost;
-      }
+      // Rejected. Nothing left to gain if even the undamped Gauss-Newton step is negligible
+      // here (in float this is how the precision limit shows).
+      if (ts == Status::kOk && gauss_newton_done()) return status_ = Status::kConvergedCost;
     }
     // A failed solve or a rejected step: more damping, same linearisation.
     lambda_ *= Scalar(10);
-    ++iterations_;
     if (lambda_ > settings_.max_lambda)
       return status_ = (s == Status::kOk ? Status::kNoProgress : s);
     if (iterations_ >= settings_.max_iterations) return status_ = Status::kMaxIterations;
@@ -114,6 +115,15 @@ class LevenbergMarquardt {
   Status check_gradient() const {
     return current_.gradient_cosine() <= settings_.gradient_tolerance ? Status::kConvergedGradient
                                                                       : Status::kRunning;
+  }
+
+  // The undamped Gauss-Newton step from the current point is tiny, or predicts a negligible
+  // decrease: the current point is a minimum of the local model, whatever the damping.
+  bool gauss_newton_done() const {
+    Vector gn;
+    if (current_.solve_damped(Scalar(0), gn) != Status::kOk) return false;
+    return small_step(gn) ||
+           current_.predicted_decrease(gn) <= settings_.cost_tolerance * current_.weighted_sse();
   }
 
   bool small_step(const Vector& delta) const {

@@ -45,6 +45,7 @@ class NormalEquations {
     for (Scalar& x : h_) x = Scalar(0);
     v_.setZero();
     f_ = Scalar(0);
+    trace_ = Scalar(0);
     rows_ = 0;
   }
 
@@ -53,6 +54,12 @@ class NormalEquations {
   Status add(const Vector& j, Scalar e, Scalar w = Scalar(1)) {
     if (!all_finite(j) || !std::isfinite(e) || !std::isfinite(w)) return Status::kNonFiniteInput;
     if (w < Scalar(0)) return Status::kInvalidArgument;
+    // Refuse a row that would overflow the sums. The diagonal of H is non-negative, so a finite
+    // trace bounds it, and Cauchy-Schwarz bounds the rest (|H_rc| <= sqrt(H_rr H_cc),
+    // |v_c| <= sqrt(H_cc f)): two checks instead of one per entry.
+    const Scalar trace = trace_ + w * j.squaredNorm();
+    if (!std::isfinite(f_ + w * e * e) || !std::isfinite(trace)) return Status::kNonFiniteInput;
+    trace_ = trace;
     int k = 0;
     for (int c = 0; c < N; ++c) {
       const Scalar wjc = w * j(c);
@@ -129,33 +136,60 @@ class NormalEquations {
     return Status::kOk;
   }
 
+  // sqrt(diag(Cov)) without forming the covariance (one column of H^-1 at a time): what a
+  // device needs, at a fraction of the stack.
   Status standard_deviations(Vector& sd) const {
-    Matrix cov;
-    const Status s = covariance(cov);
+    if (rows_ <= N) return Status::kTooFewResiduals;
+    Vector scale;
+    Matrix a;
+    Status s = scaled_matrix(Scalar(0), scale, a);
     if (s != Status::kOk) return s;
-    for (int i = 0; i < N; ++i) sd(i) = std::sqrt(cov(i, i) > Scalar(0) ? cov(i, i) : Scalar(0));
+    Eigen::LDLT<Matrix> ldlt(a);
+    s = check_factor(ldlt);
+    if (s != Status::kOk) return s;
+    const Scalar variance = f_ / Scalar(rows_ - N);
+    Vector out;
+    for (int c = 0; c < N; ++c) {
+      Vector unit = Vector::Zero();  // plain vectors in and out: see covariance()
+      unit(c) = Scalar(1);
+      const Vector column = ldlt.solve(unit);
+      const Scalar var = variance * column(c) * scale(c) * scale(c);
+      out(c) = std::sqrt(var > Scalar(0) ? var : Scalar(0));
+    }
+    if (!all_finite(out)) return Status::kIllConditioned;
+    sd = out;
     return Status::kOk;
   }
 
   // max_i |v_i| / sqrt(H_ii f): the largest cosine between the residual vector and a Jacobian
   // column. Unit-free; 0 at an exact minimum.
+  // 1 when nothing is known (no rows, a non-finite cost, no column with information).
   Scalar gradient_cosine() const {
-    if (!(f_ > Scalar(0))) return Scalar(0);
+    if (rows_ == 0 || !std::isfinite(f_)) return Scalar(1);
+    if (f_ == Scalar(0)) return Scalar(0);  // an exact fit
     Scalar worst = Scalar(0);
+    bool any = false;
     for (int i = 0; i < N; ++i) {
       const Scalar d = h(i, i);
       if (d > Scalar(0)) {
+        any = true;
         const Scalar c = std::abs(v_(i)) / std::sqrt(d * f_);
         if (c > worst) worst = c;
       }
     }
-    return worst;
+    return any ? worst : Scalar(1);
   }
 
-  // Gauss-Newton model of the decrease of f for a step delta: -(2 delta.v + delta^T H delta).
+  // Gauss-Newton model of the decrease of f for a step delta: -(2 delta.v + delta^T H delta),
+  // computed from the packed triangle (no N x N temporary on the stack).
   Scalar predicted_decrease(const Vector& delta) const {
-    const Matrix hm = information();
-    return -(Scalar(2) * delta.dot(v_) + delta.dot(hm * delta));
+    Scalar quad = Scalar(0);
+    int k = 0;
+    for (int c = 0; c < N; ++c) {
+      quad += h_[k++] * delta(c) * delta(c);
+      for (int r = c + 1; r < N; ++r) quad += Scalar(2) * h_[k++] * delta(r) * delta(c);
+    }
+    return -(Scalar(2) * delta.dot(v_) + quad);
   }
 
  private:
@@ -188,6 +222,7 @@ class NormalEquations {
   Scalar h_[static_cast<std::size_t>(kPackedSize)] = {};
   Vector v_ = Vector::Zero();
   Scalar f_ = Scalar(0);
+  Scalar trace_ = Scalar(0);  // trace of H: the overflow guard
   int rows_ = 0;
 };
 
