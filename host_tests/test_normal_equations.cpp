@@ -65,7 +65,7 @@ TEST(NormalEquations, MatchesBatchLeastSquares) {
   EXPECT_LT((delta - damped).norm(), 1e-10 * damped.norm());
 
   // Covariance f/(m-n) H^-1 and the predicted decrease of the Gauss-Newton model.
-  Eigen::Matrix<double, kN, kN> cov;
+  Eigen::Matrix<double, kN, kN> cov = Eigen::Matrix<double, kN, kN>::Zero();
   ASSERT_EQ(ne.covariance(cov), Status::kOk);
   const Eigen::Matrix<double, kN, kN> expected_cov = ne.weighted_sse() / (kRows - kN) * h.inverse();
   EXPECT_LT((cov - expected_cov).norm(), 1e-10 * expected_cov.norm());
@@ -99,7 +99,7 @@ TEST(NormalEquations, CovarianceDescribesEstimateScatter) {
     NE at_estimate;  // the covariance needs f at the minimum
     for (int r = 0; r < kRows; ++r)
       ASSERT_EQ(at_estimate.add(j.row(r).transpose(), j.row(r).dot(p) - y(r), w(r)), Status::kOk);
-    Vec sd;
+    Vec sd = Vec::Zero();
     ASSERT_EQ(at_estimate.standard_deviations(sd), Status::kOk);
     const Vec z = (p - truth).cwiseQuotient(sd);
     sum_z2 += z.cwiseProduct(z);
@@ -137,7 +137,7 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
   Vec delta = sentinel;
   EXPECT_EQ(zero_column.solve_damped(0.0, delta), Status::kRankDeficient);
   EXPECT_EQ(delta, sentinel);
-  Eigen::Matrix<double, kN, kN> cov;
+  Eigen::Matrix<double, kN, kN> cov = Eigen::Matrix<double, kN, kN>::Zero();
   EXPECT_EQ(zero_column.covariance(cov), Status::kRankDeficient);
 
   // Two parameters that always move together.
@@ -162,7 +162,7 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
 
   NE empty;
   EXPECT_EQ(empty.solve_damped(0.0, delta), Status::kRankDeficient);
-  Vec sd;
+  Vec sd = Vec::Zero();
   EXPECT_EQ(empty.standard_deviations(sd), Status::kTooFewResiduals);
   EXPECT_EQ(collinear.solve_damped(-1.0, delta), Status::kInvalidArgument);
 }

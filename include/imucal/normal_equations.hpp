@@ -111,51 +111,22 @@ class NormalEquations {
 
   // Cov(p) = f / (m - N) * H^-1, valid at the minimum of f.
   Status covariance(Matrix& cov) const {
-    if (rows_ <= N) return Status::kTooFewResiduals;
-    Vector scale;
-    Matrix a;
-    Status s = scaled_matrix(Scalar(0), scale, a);
+    Matrix c = Matrix::Zero();
+    const Status s =
+        for_each_inverse_column([&](int col, const Vector& column) { c.col(col) = column; });
     if (s != Status::kOk) return s;
-    Eigen::LDLT<Matrix> ldlt(a);
-    s = check_factor(ldlt);
-    if (s != Status::kOk) return s;
-    // Column by column, plain vector in and out: a matrix right-hand side, an expression, or a
-    // block as destination each take an Eigen path that links malloc (and a thread-safe static);
-    // the footprint's link-time no-heap check caught all three.
-    Matrix inv;
-    for (int c = 0; c < N; ++c) {
-      Vector unit = Vector::Zero();
-      unit(c) = Scalar(1);
-      const Vector column = ldlt.solve(unit);
-      inv.col(c) = column;
-    }
-    const Scalar variance = f_ / Scalar(rows_ - N);
-    Matrix c = variance * (scale.asDiagonal() * inv * scale.asDiagonal());
     if (!all_finite(c)) return Status::kIllConditioned;
     cov = c;
     return Status::kOk;
   }
 
-  // sqrt(diag(Cov)) without forming the covariance (one column of H^-1 at a time): what a
-  // device needs, at a fraction of the stack.
+  // sqrt(diag(Cov)) without forming the covariance: what a device needs, with less stack.
   Status standard_deviations(Vector& sd) const {
-    if (rows_ <= N) return Status::kTooFewResiduals;
-    Vector scale;
-    Matrix a;
-    Status s = scaled_matrix(Scalar(0), scale, a);
+    Vector out = Vector::Zero();
+    const Status s = for_each_inverse_column([&](int col, const Vector& column) {
+      out(col) = std::sqrt(column(col) > Scalar(0) ? column(col) : Scalar(0));
+    });
     if (s != Status::kOk) return s;
-    Eigen::LDLT<Matrix> ldlt(a);
-    s = check_factor(ldlt);
-    if (s != Status::kOk) return s;
-    const Scalar variance = f_ / Scalar(rows_ - N);
-    Vector out;
-    for (int c = 0; c < N; ++c) {
-      Vector unit = Vector::Zero();  // plain vectors in and out: see covariance()
-      unit(c) = Scalar(1);
-      const Vector column = ldlt.solve(unit);
-      const Scalar var = variance * column(c) * scale(c) * scale(c);
-      out(c) = std::sqrt(var > Scalar(0) ? var : Scalar(0));
-    }
     if (!all_finite(out)) return Status::kIllConditioned;
     sd = out;
     return Status::kOk;
@@ -204,6 +175,30 @@ class NormalEquations {
     for (int c = 0; c < N; ++c) {
       for (int r = c; r < N; ++r) a(r, c) = a(c, r) = h(r, c) * scale(r) * scale(c);
       a(c, c) = Scalar(1) + lambda;
+    }
+    return Status::kOk;
+  }
+
+  // Calls f(c, column c of f/(m-N) H^-1) for each c. One column at a time, plain vectors in
+  // and out: a matrix right-hand side, an expression, or a block as destination each take an
+  // Eigen path that links malloc and a thread-safe static (the footprint's no-heap check
+  // caught all three).
+  template <class F>
+  Status for_each_inverse_column(F f) const {
+    if (rows_ <= N) return Status::kTooFewResiduals;
+    Vector scale;
+    Matrix a;
+    Status s = scaled_matrix(Scalar(0), scale, a);
+    if (s != Status::kOk) return s;
+    Eigen::LDLT<Matrix> ldlt(a);
+    s = check_factor(ldlt);
+    if (s != Status::kOk) return s;
+    const Scalar variance = f_ / Scalar(rows_ - N);
+    for (int c = 0; c < N; ++c) {
+      Vector unit = Vector::Zero();
+      unit(c) = Scalar(1);
+      const Vector column = ldlt.solve(unit);
+      f(c, Vector(variance * scale(c) * scale.cwiseProduct(column)));
     }
     return Status::kOk;
   }
