@@ -4,6 +4,7 @@
 
 #include "imucal/accel_calibration.hpp"
 #include "imucal/accel_model.hpp"
+#include "imucal/gyro_segment.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "imucal/normal_equations.hpp"
 #include "imucal/pose_store.hpp"

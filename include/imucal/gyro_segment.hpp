@@ -1,0 +1,73 @@
+// imucal/gyro_segment.hpp: second-order statistics of a short run of raw gyro samples (math.md
+// section 4), so that the rotation over the run can be re-evaluated for ANY gyro matrix M and
+// bias b (model w_cal = M (w_raw + b)) without keeping the samples: 11 numbers per segment.
+// Sample steps may vary (logger jitter). Header-only, no allocation, no exceptions.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <cmath>
+#include <cstdint>
+
+#include "imucal/accel_model.hpp"
+
+namespace imucal {
+
+template <typename Scalar>
+struct GyroSegment {
+  Vector3<Scalar> alpha = Vector3<Scalar>::Zero();  // sum w_k dt_k                    (rad)
+  Vector3<Scalar> beta = Vector3<Scalar>::Zero();   // sum_{k<l} (w_k dt_k) x (w_l dt_l) (rad^2)
+  Vector3<Scalar> gamma = Vector3<Scalar>::Zero();  // sum_{k<l} dt_k dt_l (w_k - w_l)  (rad s)
+  Scalar duration = Scalar(0);                      // sum dt_k                          (s)
+  std::uint32_t samples = 0;
+
+  // Folds in one raw rate w (sensor units) held for dt seconds. B and C take the running sums
+  // before they include this sample: the earlier sample stands on the left of each cross product,
+  // which matches right-multiplied (body-frame) composition R = R_1 R_2 ... R_n.
+  void add(const Vector3<Scalar>& w, Scalar dt) {
+    const Vector3<Scalar> step = w * dt;
+    beta += alpha.cross(step);
+    gamma += alpha * dt - step * duration;
+    alpha += step;
+    duration += dt;
+    ++samples;
+  }
+
+  // The segment's rotation vector for the model w_cal = M (w_raw + b), to second order
+  // (Magnus/BCH): Omega = M alpha_b + 1/2 cof(M) beta_b with alpha_b = alpha + T b and
+  // beta_b = B + C x b (exact: the b x b terms vanish), cof(M) = det(M) M^-T.
+  Vector3<Scalar> rotation_vector(const Matrix3<Scalar>& m, const Vector3<Scalar>& b) const {
+    const Vector3<Scalar> alpha_b = alpha + duration * b;
+    const Vector3<Scalar> beta_b = beta + gamma.cross(b);
+    const Matrix3<Scalar> cof = cofactor(m);
+    return m * alpha_b + Scalar(0.5) * (cof * beta_b);
+  }
+
+  static Matrix3<Scalar> cofactor(const Matrix3<Scalar>& m) {
+    Matrix3<Scalar> c;
+    c.col(0) = m.col(1).cross(m.col(2));
+    c.col(1) = m.col(2).cross(m.col(0));
+    c.col(2) = m.col(0).cross(m.col(1));
+    return c;  // det(M) M^-T, without dividing by det(M)
+  }
+};
+
+// exp([v]x) as a rotation matrix (Rodrigues), exact for any angle.
+template <typename Scalar>
+Matrix3<Scalar> rotation_exp(const Vector3<Scalar>& v) {
+  const Scalar angle = v.norm();
+  if (angle < Scalar(1e-12)) {
+    Matrix3<Scalar> r = Matrix3<Scalar>::Identity();
+    r(0, 1) = -v(2);
+    r(0, 2) = v(1);
+    r(1, 0) = v(2);
+    r(1, 2) = -v(0);
+    r(2, 0) = -v(1);
+    r(2, 1) = v(0);
+    return r;
+  }
+  return Eigen::AngleAxis<Scalar>(angle, v / angle).toRotationMatrix();
+}
+
+}  // namespace imucal
