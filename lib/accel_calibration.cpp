@@ -7,6 +7,27 @@
 #include <cmath>
 
 namespace imucal {
+namespace {
+
+// A pose mean in the solver's units: centred, and divided by the RMS radius (one reciprocal per
+// pass, not three divisions per pose).
+template <typename Scalar>
+Vector3<Scalar> normalised(const Pose<Scalar>& pose, const Vector3<Scalar>& centre,
+                           Scalar inv_scale) {
+  return (pose.mean - centre) * inv_scale;
+}
+
+// sigma of the normalised parameters, and whether every one is small enough to call it
+// calibrated (used at the closed-form start and again at the end).
+template <typename Scalar>
+Status observable_sigma(const NormalEquations<Scalar, kAccelParams>& ne,
+                        const AccelSettings<Scalar>& settings, AccelVector<Scalar>& sd) {
+  const Status s = ne.standard_deviations(sd);
+  if (s != Status::kOk) return s;
+  return sd.maxCoeff() <= settings.max_normalised_sigma ? Status::kOk : Status::kUnobservable;
+}
+
+}  // namespace
 
 template <typename Scalar>
 Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings,
@@ -50,8 +71,9 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
   // of the normalised means with eigenvalues l1 <= l2 <= l3, det / (m2 tr) with m2 the sum of the
   // principal 2x2 minors lies between l1 / (9 l3) and l1 / l3, and is exactly 0 for coplanar poses.
   Matrix3<Scalar> scatter = Matrix3<Scalar>::Zero();
+  const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
-    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
     scatter += x * x.transpose();
   }
   const Matrix3<Scalar>& m = scatter;
@@ -72,8 +94,9 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   for (int i = 0; i < poses.size; ++i) mean_n += Scalar(poses[i].samples);
   mean_n /= Scalar(poses.size);
   NormalEquations<Scalar, kAccelParams> ne;
+  const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
-    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
     AccelVector<Scalar> phi;
     phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1), Scalar(2) * x(0) * x(2),
         Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
@@ -115,8 +138,9 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
 template <typename Scalar>
 Status AccelSolver<Scalar>::Problem::accumulate(const AccelVector<Scalar>& p,
                                                 NormalEquations<Scalar, kAccelParams>& ne) const {
+  const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
-    const Vector3<Scalar> x = (poses[i].mean - centre) / scale;
+    const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
     AccelVector<Scalar> j;
     const Scalar e = accel_residual(p, x, Scalar(1), &j);
     const Status s = ne.add(j, e, Scalar(poses[i].samples));
@@ -146,10 +170,8 @@ Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
   // sigma there shows whether the poses determine every parameter (a flat valley would
   // otherwise only end at the iteration cap).
   AccelVector<Scalar> sd;
-  const Status ss = lm_.normal_equations().standard_deviations(sd);
-  if (ss != Status::kOk) return status_ = ss;
-  if (!(sd.maxCoeff() <= settings_.max_normalised_sigma)) return status_ = Status::kUnobservable;
-  return status_ = s;
+  const Status obs = observable_sigma(lm_.normal_equations(), settings_, sd);
+  return status_ = (obs == Status::kOk ? s : obs);
 }
 
 template <typename Scalar>
@@ -169,10 +191,8 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
 
   const AccelVector<Scalar>& pn = lm_.parameters();
   AccelVector<Scalar> sdn;
-  const Status cs = lm_.normal_equations().standard_deviations(sdn);
-  if (cs != Status::kOk) return out.status = cs;
-  if (!(sdn.maxCoeff() <= settings_.max_normalised_sigma))
-    return out.status = Status::kUnobservable;
+  const Status obs = observable_sigma(lm_.normal_equations(), settings_, sdn);
+  if (obs != Status::kOk) return out.status = obs;
 
   // Back to sensor units: x = (a - centre) / scale and unit gravity, so
   // s = s' g / scale, b = scale b' - centre, misalignments unchanged.
@@ -188,7 +208,7 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   }
   Scalar sum_w = Scalar(0), sum_r2 = Scalar(0);
   for (int i = 0; i < problem_.poses.size; ++i) {
-    const Vector3<Scalar> x = (problem_.poses[i].mean - problem_.centre) / k;
+    const Vector3<Scalar> x = normalised(problem_.poses[i], problem_.centre, Scalar(1) / k);
     const Vector3<Scalar> c = accel_apply(pn, x);
     const Scalar r = g * (Scalar(1) - c.norm());
     const Scalar w = Scalar(problem_.poses[i].samples);

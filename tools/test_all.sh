@@ -16,8 +16,12 @@ require_xsens=OFF
 for preset in host m4f m7 m33; do
   echo "== $preset: configure, build, test"
   cmake --preset "$preset" -DIMUCAL_REQUIRE_XSENS=$require_xsens >/dev/null
-  cmake --build --preset "$preset" 2>&1 | grep -E "error|warning|no-heap|text .* B" || true
-  cmake --build --preset "$preset" >/dev/null  # fails the script if the build failed
+  log="build/$preset/build.log"
+  if ! cmake --build --preset "$preset" >"$log" 2>&1; then
+    cat "$log"
+    exit 1
+  fi
+  grep -E "no-heap|text .* B" "$log" || true  # the footprint check's verdict and sizes
   ctest --preset "$preset"
 done
 

@@ -95,11 +95,8 @@ class NormalEquations {
   // independent of the parameters' units. lambda = 0 is the Gauss-Newton step.
   Status solve_damped(Scalar lambda, Vector& delta) const {
     Vector scale;
-    Matrix a;
-    Status s = scaled_matrix(lambda, scale, a);
-    if (s != Status::kOk) return s;
-    Eigen::LDLT<Matrix> ldlt(a);
-    s = check_factor(ldlt);
+    Eigen::LDLT<Matrix> ldlt;
+    const Status s = factor(lambda, scale, ldlt);
     if (s != Status::kOk) return s;
     Vector rhs = -(scale.cwiseProduct(v_));
     Vector x = ldlt.solve(rhs);
@@ -133,8 +130,8 @@ class NormalEquations {
   }
 
   // max_i |v_i| / sqrt(H_ii f): the largest cosine between the residual vector and a Jacobian
-  // column. Unit-free; 0 at an exact minimum.
-  // 1 when nothing is known (no rows, a non-finite cost, no column with information).
+  // column. Unit-free; 0 at an exact minimum; 1 when nothing is known (no rows, a non-finite
+  // cost, no column with information).
   Scalar gradient_cosine() const {
     if (rows_ == 0 || !std::isfinite(f_)) return Scalar(1);
     if (f_ == Scalar(0)) return Scalar(0);  // an exact fit
@@ -187,11 +184,8 @@ class NormalEquations {
   Status for_each_inverse_column(F f) const {
     if (rows_ <= N) return Status::kTooFewResiduals;
     Vector scale;
-    Matrix a;
-    Status s = scaled_matrix(Scalar(0), scale, a);
-    if (s != Status::kOk) return s;
-    Eigen::LDLT<Matrix> ldlt(a);
-    s = check_factor(ldlt);
+    Eigen::LDLT<Matrix> ldlt;
+    const Status s = factor(Scalar(0), scale, ldlt);
     if (s != Status::kOk) return s;
     const Scalar variance = f_ / Scalar(rows_ - N);
     for (int c = 0; c < N; ++c) {
@@ -201,6 +195,15 @@ class NormalEquations {
       f(c, Vector(variance * scale(c) * scale.cwiseProduct(column)));
     }
     return Status::kOk;
+  }
+
+  // LDL^T of the Jacobi-scaled, damped matrix, checked for rank and conditioning.
+  Status factor(Scalar lambda, Vector& scale, Eigen::LDLT<Matrix>& ldlt) const {
+    Matrix a;
+    const Status s = scaled_matrix(lambda, scale, a);
+    if (s != Status::kOk) return s;
+    ldlt.compute(a);
+    return check_factor(ldlt);
   }
 
   static Status check_factor(const Eigen::LDLT<Matrix>& ldlt) {
