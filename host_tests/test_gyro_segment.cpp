@@ -41,6 +41,27 @@ TEST(GyroSegment, ReEvaluationForAnyMatrixAndBiasIsExact) {
   }
 }
 
+// Appending the statistics of a later run equals adding its samples one by one: segments can
+// be merged after the fact without the samples.
+TEST(GyroSegment, AppendingARunEqualsAddingItsSamples) {
+  sim::Random rng(5);
+  GyroSegment<double> whole, first, second;
+  for (int k = 0; k < 20; ++k) {
+    const Vector3<double> w(rng.normal(), rng.normal(), rng.normal());
+    const double dt = 0.01 * rng.uniform(0.9, 1.1);
+    whole.add(w, dt);
+    (k < 7 ? first : second).add(w, dt);
+  }
+  first.append(second);
+  EXPECT_LT((first.alpha - whole.alpha).norm(), 1e-15);
+  EXPECT_LT((first.beta - whole.beta).norm(), 1e-15);
+  EXPECT_LT((first.gamma - whole.gamma).norm(), 1e-15);
+  EXPECT_NEAR(first.duration, whole.duration, 1e-15);
+  EXPECT_EQ(first.samples, whole.samples);
+  EXPECT_GT(whole.beta.norm(), 1e-4);  // the cross terms are not trivially zero
+  EXPECT_GT(whole.gamma.norm(), 1e-4);
+}
+
 TEST(GyroSegment, CofactorIsDeterminantTimesInverseTranspose) {
   sim::Random rng(2);
   const Matrix3<double> m = random_gyro_matrix(rng);

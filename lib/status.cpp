@@ -42,6 +42,22 @@ const char* to_string(Status s) {
       return "fitted quadric is not an ellipsoid";
     case Status::kUnobservable:
       return "a parameter is not observable from these poses";
+    case Status::kTimeNotIncreasing:
+      return "timestamp not increasing (sample refused)";
+    case Status::kTimestampGap:
+      return "gap in the timestamps (the move across it is dropped)";
+    case Status::kSensorFrozen:
+      return "sensor frozen (identical readings)";
+    case Status::kInitialRestDisturbed:
+      return "moved during the initial rest (restarted)";
+    case Status::kRestTooShort:
+      return "rest too short to become a pose";
+    case Status::kEndedInMotion:
+      return "stream ended during a move (move not used)";
+    case Status::kTooFewMoves:
+      return "too few usable moves between poses";
+    case Status::kBusy:
+      return "busy solving (sample not taken)";
   }
   return "unknown status";
 }

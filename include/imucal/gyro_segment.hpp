@@ -34,6 +34,17 @@ struct GyroSegment {
     ++samples;
   }
 
+  // Appends the statistics of the run that directly follows this one: the result is exactly
+  // the statistics of both runs' samples in order (the cross terms between the runs are
+  // alpha_1 x alpha_2 and alpha_1 T_2 - alpha_2 T_1). add() is append() of one sample.
+  void append(const GyroSegment& later) {
+    beta += later.beta + alpha.cross(later.alpha);
+    gamma += later.gamma + alpha * later.duration - later.alpha * duration;
+    alpha += later.alpha;
+    duration += later.duration;
+    samples += later.samples;
+  }
+
   // The segment's rotation vector for the model w_cal = M (w_raw + b), to second order
   // (Magnus/BCH): Omega = M alpha_b + 1/2 cof(M) beta_b with alpha_b = alpha + T b and
   // beta_b = B + C x b (exact: the b x b terms vanish), cof(M) = det(M) M^-T.

@@ -36,64 +36,16 @@ class LevenbergMarquardt {
   // Evaluates the problem at p0. Returns kRunning when the iteration can proceed.
   template <class Problem>
   Status start(const Problem& problem, const Vector& p0) {
-    iterations_ = 0;
-    lambda_ = settings_.initial_lambda;
-    if (!all_finite(p0)) return status_ = Status::kNonFiniteInput;
-    if (settings_.max_iterations < 1 || !(settings_.initial_lambda > Scalar(0)) ||
-        !(settings_.max_lambda > settings_.initial_lambda))
-      return status_ = Status::kInvalidArgument;
-    p_ = p0;
-    current_.clear();
-    const Status s = problem.accumulate(p_, current_);
-    if (s != Status::kOk) return status_ = s;
-    return status_ = check_gradient();
+    if (begin(p0) != Status::kRunning) return status_;
+    return evaluated(problem.accumulate(evaluation_point(), evaluation_accumulator()));
   }
 
-  // One iteration: at most one pass over the residuals and one or two N x N factorisations.
+  // One iteration: one pass over the residuals and one or more N x N factorisations.
   // A step shrunk by heavy damping is never mistaken for convergence (see gauss_newton_done).
   template <class Problem>
   Status step(const Problem& problem) {
-    if (status_ != Status::kRunning) return status_;
-    ++iterations_;
-    Vector delta;
-    const Status s = current_.solve_damped(lambda_, delta);
-    // Damping is relative to diag(H): it cannot cure a column with no information.
-    if (s == Status::kRankDeficient) return status_ = s;
-    if (s == Status::kOk) {
-      const Scalar f0 = current_.weighted_sse();
-      const Scalar predicted = current_.predicted_decrease(delta);
-      const Vector trial_p = p_ + delta;
-      trial_.clear();
-      const Status ts = problem.accumulate(trial_p, trial_);
-      const Scalar actual = f0 - trial_.weighted_sse();
-      if (ts == Status::kOk && actual > Scalar(0)) {
-        const Scalar lambda_used = lambda_;
-        p_ = trial_p;
-        current_ = trial_;
-        lambda_ = lambda_ / Scalar(10);
-        if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
-        const bool tiny_step = small_step(delta);
-        const bool tiny_gain = actual <= settings_.cost_tolerance * f0 &&
-                               predicted <= Scalar(2) * settings_.cost_tolerance * f0;
-        // A heavily damped step is small for the wrong reason: then only the undamped
-        // Gauss-Newton step at the new point may confirm convergence.
-        if ((tiny_step || tiny_gain) && (lambda_used <= Scalar(1) || gauss_newton_done()))
-          return status_ = tiny_step ? Status::kConvergedStep : Status::kConvergedCost;
-        status_ = check_gradient();
-        if (status_ == Status::kRunning && iterations_ >= settings_.max_iterations)
-          status_ = Status::kMaxIterations;
-        return status_;
-      }
-      // Rejected. Nothing left to gain if even the undamped Gauss-Newton step is negligible
-      // here (in float this is how the precision limit shows).
-      if (ts == Status::kOk && gauss_newton_done()) return status_ = Status::kConvergedCost;
-    }
-    // A failed solve or a rejected step: more damping, same linearisation.
-    lambda_ *= Scalar(10);
-    if (lambda_ > settings_.max_lambda)
-      return status_ = (s == Status::kOk ? Status::kNoProgress : s);
-    if (iterations_ >= settings_.max_iterations) return status_ = Status::kMaxIterations;
-    return status_;
+    if (!evaluation_pending()) return status_;
+    return evaluated(problem.accumulate(evaluation_point(), evaluation_accumulator()));
   }
 
   template <class Problem>
@@ -101,6 +53,67 @@ class LevenbergMarquardt {
     Status s = start(problem, p0);
     while (s == Status::kRunning) s = step(problem);
     return s;
+  }
+
+  // The same iteration with the evaluation left to the caller, who may spread one pass over
+  // the residuals across many calls (time slicing):
+  //   begin(p0); then, while evaluation_pending(): fold every row at evaluation_point() into
+  //   evaluation_accumulator() (already cleared), and report with evaluated(status).
+  Status begin(const Vector& p0) {
+    iterations_ = 0;
+    lambda_ = settings_.initial_lambda;
+    pending_ = false;
+    if (!all_finite(p0)) return status_ = Status::kNonFiniteInput;
+    if (settings_.max_iterations < 1 || !(settings_.initial_lambda > Scalar(0)) ||
+        !(settings_.max_lambda > settings_.initial_lambda))
+      return status_ = Status::kInvalidArgument;
+    p_ = p0;
+    current_.clear();
+    at_start_ = true;
+    pending_ = true;
+    return status_ = Status::kRunning;
+  }
+
+  bool evaluation_pending() const { return status_ == Status::kRunning && pending_; }
+  const Vector& evaluation_point() const { return at_start_ ? p_ : trial_p_; }
+  Accumulator& evaluation_accumulator() { return at_start_ ? current_ : trial_; }
+
+  // Takes the finished evaluation (or the reason it failed) and either stops or asks for the
+  // next one: after an accepted or rejected trial the next damped step is proposed at once.
+  Status evaluated(Status accumulate_status) {
+    if (!evaluation_pending()) return status_;
+    pending_ = false;
+    if (at_start_) {
+      at_start_ = false;
+      if (accumulate_status != Status::kOk) return status_ = accumulate_status;
+      status_ = check_gradient();
+      return status_ == Status::kRunning ? propose() : status_;
+    }
+    const Scalar f0 = current_.weighted_sse();
+    const Scalar actual = f0 - trial_.weighted_sse();
+    if (accumulate_status == Status::kOk && actual > Scalar(0)) {
+      const Scalar lambda_used = lambda_;
+      p_ = trial_p_;
+      current_ = trial_;
+      lambda_ = lambda_ / Scalar(10);
+      if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
+      const bool tiny_step = small_step(delta_);
+      const bool tiny_gain = actual <= settings_.cost_tolerance * f0 &&
+                             predicted_ <= Scalar(2) * settings_.cost_tolerance * f0;
+      // A heavily damped step is small for the wrong reason: then only the undamped
+      // Gauss-Newton step at the new point may confirm convergence.
+      if ((tiny_step || tiny_gain) && (lambda_used <= Scalar(1) || gauss_newton_done()))
+        return status_ = tiny_step ? Status::kConvergedStep : Status::kConvergedCost;
+      status_ = check_gradient();
+      if (status_ == Status::kRunning && iterations_ >= settings_.max_iterations)
+        status_ = Status::kMaxIterations;
+      return status_ == Status::kRunning ? propose() : status_;
+    }
+    // Rejected. Nothing left to gain if even the undamped Gauss-Newton step is negligible
+    // here (in float this is how the precision limit shows).
+    if (accumulate_status == Status::kOk && gauss_newton_done())
+      return status_ = Status::kConvergedCost;
+    return more_damping(Status::kOk);
   }
 
   Status status() const { return status_; }
@@ -131,11 +144,46 @@ class LevenbergMarquardt {
     return delta.norm() <= tol * (p_.norm() + tol);
   }
 
+  // Solves for the next trial point (one iteration); a failed solve raises the damping and
+  // solves again, without a new evaluation.
+  Status propose() {
+    for (;;) {
+      ++iterations_;
+      const Status s = current_.solve_damped(lambda_, delta_);
+      // Damping is relative to diag(H): it cannot cure a column with no information.
+      if (s == Status::kRankDeficient) return status_ = s;
+      if (s == Status::kOk) {
+        predicted_ = current_.predicted_decrease(delta_);
+        trial_p_ = p_ + delta_;
+        trial_.clear();
+        pending_ = true;
+        return status_ = Status::kRunning;
+      }
+      if (more_damping(s) != Status::kRunning) return status_;
+    }
+  }
+
+  // A failed solve or a rejected step: more damping, same linearisation. kRunning after a
+  // rejected step means a new trial is pending; after a failed solve, solve again.
+  Status more_damping(Status solve_status) {
+    lambda_ *= Scalar(10);
+    if (lambda_ > settings_.max_lambda)
+      return status_ = (solve_status == Status::kOk ? Status::kNoProgress : solve_status);
+    if (iterations_ >= settings_.max_iterations) return status_ = Status::kMaxIterations;
+    if (solve_status == Status::kOk) return propose();
+    return status_ = Status::kRunning;
+  }
+
   LmSettings<Scalar> settings_;
   Accumulator current_;
   Accumulator trial_;
   Vector p_ = Vector::Zero();
+  Vector trial_p_ = Vector::Zero();
+  Vector delta_ = Vector::Zero();
+  Scalar predicted_ = Scalar(0);
   Scalar lambda_ = Scalar(0);
+  bool at_start_ = false;
+  bool pending_ = false;
   int iterations_ = 0;
   Status status_ = Status::kNotStarted;
 };

@@ -29,6 +29,15 @@ enum class Status : std::uint8_t {
   kIllConditioned,  // the normal matrix is too close to singular for this scalar type
   kNotAnEllipsoid,  // the closed-form fit found a quadric that is not an ellipsoid
   kUnobservable,    // solved, but a parameter's sigma is too large to call it calibrated
+  // The sample stream (streaming calibrator).
+  kTimeNotIncreasing,  // a timestamp not after the previous one: the sample is refused
+  kTimestampGap,       // samples missing: the move across the gap is dropped, poses are kept
+  kSensorFrozen,       // a sensor repeats the same reading: samples refused until it recovers
+  kInitialRestDisturbed,  // the unit moved during the initial rest: it starts again
+  kRestTooShort,          // a rest ended before it was long enough to become a pose
+  kEndedInMotion,         // the stream stopped during a move: that move is not used
+  kTooFewMoves,           // fewer usable moves between poses than the gyro model needs
+  kBusy,                  // the calibrator is solving: samples are not taken meanwhile
 };
 
 // True for the statuses that mean "this estimate is usable".
