@@ -41,7 +41,7 @@ template <typename Scalar, class Derived>
 Matrix3<Scalar> gyro_matrix(const Eigen::MatrixBase<Derived>& p) {
   Matrix3<Scalar> m;
   m << p(kGyroScaleX), -p(kGammaYz) * p(kGyroScaleY), p(kGammaZy) * p(kGyroScaleZ),  //
-      p(kGammaXz) * p(kGyroScaleX), p(kGyroScaleY), -p(kGammaZx) * p(kGyroScaleZ),    //
+      p(kGammaXz) * p(kGyroScaleX), p(kGyroScaleY), -p(kGammaZx) * p(kGyroScaleZ),   //
       -p(kGammaXy) * p(kGyroScaleX), p(kGammaYx) * p(kGyroScaleY), p(kGyroScaleZ);
   return m;
 }

@@ -30,9 +30,9 @@ enum class Status : std::uint8_t {
   kNotAnEllipsoid,  // the closed-form fit found a quadric that is not an ellipsoid
   kUnobservable,    // solved, but a parameter's sigma is too large to call it calibrated
   // The sample stream (streaming calibrator).
-  kTimeNotIncreasing,  // a timestamp not after the previous one: the sample is refused
-  kTimestampGap,       // samples missing: the move across the gap is dropped, poses are kept
-  kSensorFrozen,       // a sensor repeats the same reading: samples refused until it recovers
+  kTimeNotIncreasing,     // a timestamp not after the previous one: the sample is refused
+  kTimestampGap,          // samples missing: the move across the gap is dropped, poses are kept
+  kSensorFrozen,          // a sensor repeats the same reading: samples refused until it recovers
   kInitialRestDisturbed,  // the unit moved during the initial rest: it starts again
   kRestTooShort,          // a rest ended before it was long enough to become a pose
   kEndedInMotion,         // the stream stopped during a move: that move is not used

@@ -1,0 +1,309 @@
+// imucal/gyro_calibration.hpp: gyroscope misalignment, scale and (optionally) bias from the
+// moves between still poses: Tedaldi's gravity-direction residual (math.md section 4), the
+// rotation of each move re-evaluated from fixed-memory segment statistics, solved by the same
+// Levenberg-Marquardt driver and accumulator as the accelerometer.
+//
+// For move k from pose a to pose b, with R the body-frame rotation over the move and g the unit
+// gravity directions measured by the calibrated accelerometer,
+//
+//   r_k = R^T g_a - g_b
+//
+// Only the two components of r_k perpendicular to g_b are accumulated: the third is
+// -angle^2/2, second order, and carries no information at the solution; dropping it gives each
+// move its true two degrees of freedom, which the covariance needs.
+//
+// The segment statistics are of u = w_raw + b0, the raw rate corrected by the initial-rest bias
+// b0 (both in sensor units, bias ADDED as in the seed). The refined bias is b0 + db.
+#pragma once
+
+#include <Eigen/Core>
+#include <climits>
+#include <cmath>
+
+#include "imucal/gyro_model.hpp"
+#include "imucal/gyro_segment.hpp"
+#include "imucal/levenberg_marquardt.hpp"
+#include "imucal/normal_equations.hpp"
+#include "imucal/status.hpp"
+
+namespace imucal {
+
+// One move: the consecutive segments [first_segment, first_segment + segments) integrated from
+// the end of pose from_pose to the start of pose to_pose.
+struct GyroMove {
+  int first_segment = 0;
+  int segments = 0;
+  int from_pose = 0;
+  int to_pose = 0;
+};
+
+// What the gyro run reads; the memory belongs to the caller (the calibrator's stores).
+template <typename Scalar>
+struct GyroData {
+  const GyroSegment<Scalar>* segments = nullptr;
+  const GyroMove* moves = nullptr;
+  int move_count = 0;
+  const Vector3<Scalar>* up = nullptr;  // unit gravity direction of each pose (calibrated)
+  int pose_count = 0;
+};
+
+// Rodrigues coefficients of the rotation vector w, theta = |w|:
+//   a = sin(theta)/theta, b = (1 - cos(theta))/theta^2, c = (theta - sin(theta))/theta^3.
+// exp([w]x) = I + a [w]x + b [w]x^2 and the left Jacobian J_l = I + b [w]x + c [w]x^2.
+// Below 0.2 rad the series is exact to float precision and avoids 0/0 and cancellation.
+template <typename Scalar>
+void rodrigues_coefficients(Scalar theta2, Scalar& a, Scalar& b, Scalar& c) {
+  if (theta2 < Scalar(0.04)) {
+    const Scalar t4 = theta2 * theta2;
+    a = Scalar(1) - theta2 / Scalar(6) + t4 / Scalar(120) - t4 * theta2 / Scalar(5040);
+    b = Scalar(0.5) - theta2 / Scalar(24) + t4 / Scalar(720) - t4 * theta2 / Scalar(40320);
+    c = Scalar(1) / Scalar(6) - theta2 / Scalar(120) + t4 / Scalar(5040) -
+        t4 * theta2 / Scalar(362880);
+    return;
+  }
+  const Scalar theta = std::sqrt(theta2);
+  const Scalar s = std::sin(theta);
+  a = s / theta;
+  b = (Scalar(1) - std::cos(theta)) / theta2;
+  c = (theta - s) / (theta2 * theta);
+}
+
+template <typename Scalar>
+Matrix3<Scalar> skew(const Vector3<Scalar>& v) {
+  Matrix3<Scalar> s;
+  s << Scalar(0), -v(2), v(1), v(2), Scalar(0), -v(0), -v(1), v(0), Scalar(0);
+  return s;
+}
+
+// The residual problem over all moves, for N = 9 (bias fixed at b0) or N = 12 (bias refined).
+// Evaluation can be sliced: a cursor carries the partial rotation of the move in progress.
+template <typename Scalar, int N>
+class GyroProblem {
+ public:
+  static_assert(N == kGyroMatrixParams || N == kGyroParams, "9 or 12 gyro parameters");
+  using Vector = Eigen::Matrix<Scalar, N, 1>;
+  using Accumulator = NormalEquations<Scalar, N>;
+
+  // Where an evaluation pass stands: move, segment, and the rotated gravity v = R^T g_a with its
+  // derivatives (columns: the 9 entries of M column-major, then db).
+  struct Cursor {
+    int move = 0;
+    int segment = 0;
+    bool begun = false;
+    Vector3<Scalar> v = Vector3<Scalar>::Zero();
+    Eigen::Matrix<Scalar, 3, N> dv = Eigen::Matrix<Scalar, 3, N>::Zero();
+    Scalar cost = Scalar(0);  // the cost-only pass sums here
+  };
+
+  GyroData<Scalar> data{};
+
+  // Folds the rows of at most max_segments segments (whole moves at the end of each) into ne
+  // (a NormalEquations, or anything with the same add(row, residual)). kRunning while moves
+  // remain, kOk when the pass is complete, or why a row was refused.
+  template <class Acc>
+  Status accumulate_slice(const Vector& p, Acc& ne, Cursor& c, int max_segments) const {
+    return pass<true>(p, &ne, c, max_segments);
+  }
+
+  // The LM's Problem interface: one whole pass.
+  template <class Acc>
+  Status accumulate(const Vector& p, Acc& ne) const {
+    Cursor c;
+    Status s;
+    while ((s = accumulate_slice(p, ne, c, INT_MAX)) == Status::kRunning) {
+    }
+    return s;
+  }
+
+  // The cost only (sum of squared residual components), sliced the same way; the sum is in
+  // c.cost once the return is kOk.
+  Status cost_slice(const Vector& p, Cursor& c, int max_segments) const {
+    return pass<false, Accumulator>(p, nullptr, c, max_segments);
+  }
+
+ private:
+  template <bool kJacobian, class Acc>
+  Status pass(const Vector& p, Acc* ne, Cursor& c, int max_segments) const {
+    if (!all_finite(p)) return Status::kNonFiniteInput;
+    const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
+    const Matrix3<Scalar> cof = GyroSegment<Scalar>::cofactor(m);
+    Vector3<Scalar> db = Vector3<Scalar>::Zero();
+    if constexpr (N == kGyroParams) db = p.template tail<3>();
+    int budget = max_segments;
+    while (c.move < data.move_count) {
+      const GyroMove& mv = data.moves[c.move];
+      if (!c.begun) {
+        c.v = data.up[mv.from_pose];
+        c.dv.setZero();
+        c.segment = 0;
+        c.begun = true;
+      }
+      for (; c.segment < mv.segments; ++c.segment) {
+        if (budget-- <= 0) return Status::kRunning;
+        advance<kJacobian>(data.segments[mv.first_segment + c.segment], m, cof, db, c);
+      }
+      const Status s = finish_move<kJacobian>(p, data.up[mv.to_pose], ne, c);
+      if (s != Status::kOk) return s;
+      c.begun = false;
+      ++c.move;
+    }
+    return Status::kOk;
+  }
+
+  // v <- E^T v for the segment's rotation E = exp([Omega]x), and (with kJacobian)
+  // dv <- E^T (dv + [v]x J_l(Omega) dOmega): d(exp(-[Omega]x) v)/dOmega = E^T [v]x J_l(Omega).
+  template <bool kJacobian>
+  static void advance(const GyroSegment<Scalar>& seg, const Matrix3<Scalar>& m,
+                      const Matrix3<Scalar>& cof, const Vector3<Scalar>& db, Cursor& c) {
+    const Vector3<Scalar> ab = seg.alpha + seg.duration * db;
+    const Vector3<Scalar> bb = seg.beta + seg.gamma.cross(db);
+    const Vector3<Scalar> omega = m * ab + Scalar(0.5) * (cof * bb);
+    Scalar ka, kb, kc;
+    rodrigues_coefficients(omega.squaredNorm(), ka, kb, kc);
+    const Matrix3<Scalar> w = skew(omega);
+    const Matrix3<Scalar> w2 = w * w;
+    // E^T = exp(-[Omega]x) = I - a [Omega]x + b [Omega]x^2
+    const Matrix3<Scalar> et = Matrix3<Scalar>::Identity() - ka * w + kb * w2;
+    if constexpr (kJacobian) {
+      const Matrix3<Scalar> jl = Matrix3<Scalar>::Identity() + kb * w + kc * w2;
+      const Matrix3<Scalar> g = skew(c.v) * jl;
+      // dOmega/dM: column block j is ab(j) I + 1/2 D_j, with the cofactor's derivative
+      // D_0 = b1 [m2]x - b2 [m1]x, D_1 = b2 [m0]x - b0 [m2]x, D_2 = b0 [m1]x - b1 [m0]x.
+      const Matrix3<Scalar> s0 = skew(Vector3<Scalar>(m.col(0)));
+      const Matrix3<Scalar> s1 = skew(Vector3<Scalar>(m.col(1)));
+      const Matrix3<Scalar> s2 = skew(Vector3<Scalar>(m.col(2)));
+      const Scalar h = Scalar(0.5);
+      Eigen::Matrix<Scalar, 3, N> d;
+      d.template block<3, 3>(0, 0) = ab(0) * g + h * (g * (bb(1) * s2 - bb(2) * s1));
+      d.template block<3, 3>(0, 3) = ab(1) * g + h * (g * (bb(2) * s0 - bb(0) * s2));
+      d.template block<3, 3>(0, 6) = ab(2) * g + h * (g * (bb(0) * s1 - bb(1) * s0));
+      // dOmega/ddb = T M + 1/2 cof(M) [C]x (alpha_b = alpha + T db, beta_b = B + C x db)
+      if constexpr (N == kGyroParams)
+        d.template block<3, 3>(0, 9) = g * (seg.duration * m + h * (cof * skew(seg.gamma)));
+      c.dv = et * (c.dv + d);
+    }
+    c.v = et * c.v;
+  }
+
+  // Two rows per move: the components of r = v - g_b along a basis (e1, e2) perpendicular to
+  // g_b. The Jacobian columns for the entries of M map to the 9 parameters through M = T K.
+  template <bool kJacobian, class Acc>
+  static Status finish_move(const Vector& p, const Vector3<Scalar>& gb, Acc* ne, Cursor& c) {
+    Vector3<Scalar> e1, e2;
+    tangent_basis(gb, e1, e2);
+    const Vector3<Scalar> r = c.v - gb;
+    const Scalar r1 = e1.dot(r), r2 = e2.dot(r);
+    if constexpr (!kJacobian) {
+      c.cost += r1 * r1 + r2 * r2;
+      return std::isfinite(c.cost) ? Status::kOk : Status::kNonFiniteInput;
+    } else {
+      Status s = ne->add(parameter_row(p, Vector(e1.transpose() * c.dv)), r1);
+      if (s == Status::kOk) s = ne->add(parameter_row(p, Vector(e2.transpose() * c.dv)), r2);
+      return s;
+    }
+  }
+
+  // d/dq from d/dM (column-major entries, index 3 col + row) for M = T K.
+  static Vector parameter_row(const Vector& p, const Vector& jm) {
+    Vector j = jm;  // the bias columns (N = 12) carry over
+    j(kGammaYz) = -p(kGyroScaleY) * jm(3);
+    j(kGammaZy) = p(kGyroScaleZ) * jm(6);
+    j(kGammaZx) = -p(kGyroScaleZ) * jm(7);
+    j(kGammaXz) = p(kGyroScaleX) * jm(1);
+    j(kGammaXy) = -p(kGyroScaleX) * jm(2);
+    j(kGammaYx) = p(kGyroScaleY) * jm(5);
+    j(kGyroScaleX) = jm(0) + p(kGammaXz) * jm(1) - p(kGammaXy) * jm(2);
+    j(kGyroScaleY) = -p(kGammaYz) * jm(3) + jm(4) + p(kGammaYx) * jm(5);
+    j(kGyroScaleZ) = p(kGammaZy) * jm(6) - p(kGammaZx) * jm(7) + jm(8);
+    return j;
+  }
+
+  static void tangent_basis(const Vector3<Scalar>& g, Vector3<Scalar>& e1, Vector3<Scalar>& e2) {
+    int k = 0;  // the axis least aligned with g gives a well-conditioned cross product
+    if (std::abs(g(1)) < std::abs(g(k))) k = 1;
+    if (std::abs(g(2)) < std::abs(g(k))) k = 2;
+    e1 = g.cross(Vector3<Scalar>::Unit(k)).normalized();
+    e2 = g.cross(e1);
+  }
+};
+
+template <typename Scalar>
+struct GyroSettings {
+  // rad/s per sensor unit, if known (datasheet). 0: found from the data by a 1-D search over a
+  // common scale in [search_min, search_max] (a grid in steps of sqrt(2), then golden section).
+  Scalar nominal_scale = Scalar(0);
+  Scalar search_min = Scalar(1e-6);
+  Scalar search_max = Scalar(10);
+  bool refine_bias = false;  // 9 parameters (Tedaldi: bias from the initial rest) or 12
+  // Segments folded per step() (time slicing): bounds the work of one call.
+  int segments_per_step = 96;
+  // Largest accepted sigma: misalignment in rad, scale relative, bias in rad/s. Larger means
+  // the moves do not determine that parameter (kUnobservable).
+  Scalar max_normalised_sigma = Scalar(0.02);
+  LmSettings<Scalar> lm{};
+};
+
+template <typename Scalar>
+struct GyroCalibration {
+  // imu_tk layout, then the ADDED bias (absolute, sensor units): w_cal = T K (w_raw + b).
+  GyroVector<Scalar> params = GyroVector<Scalar>::Zero();
+  GyroVector<Scalar> sigma = GyroVector<Scalar>::Zero();  // bias sigma from the initial rest
+  Scalar residual_rms = Scalar(0);  // rad: RMS over moves of the sine of the gravity angle error
+  int moves = 0;
+  int iterations = 0;
+  bool bias_refined = false;
+  Status status = Status::kNotStarted;
+};
+
+// Fewest moves: two rows each, more rows than parameters.
+constexpr int gyro_min_moves(int n) { return n / 2 + 1; }
+
+// The gyro solve in bounded steps: the scale search (when no nominal scale is given) and then
+// the LM, each step folding at most segments_per_step segments.
+template <typename Scalar, int N>
+class GyroSolver {
+ public:
+  using Problem = GyroProblem<Scalar, N>;
+  using Vector = typename Problem::Vector;
+
+  explicit GyroSolver(const GyroSettings<Scalar>& settings = GyroSettings<Scalar>())
+      : settings_(settings), lm_(settings.lm) {}
+
+  // b0: the initial-rest bias the segments were corrected with (sensor units, added).
+  Status start(const GyroData<Scalar>& data, const Vector3<Scalar>& b0);
+  Status step();
+  Status finish(GyroCalibration<Scalar>& out) const;
+  Status status() const { return status_; }
+  int iterations() const { return lm_.iterations(); }
+  int evaluations() const { return evaluations_; }
+
+ private:
+  enum class Stage : std::uint8_t { kGrid, kGolden, kLm };
+  Vector scaled_identity(Scalar s) const;
+  Status begin_lm(Scalar s);
+  Status search_step();
+  Status lm_step();
+
+  GyroSettings<Scalar> settings_;
+  Problem problem_{};
+  LevenbergMarquardt<Scalar, N> lm_;
+  typename Problem::Cursor cursor_{};
+  Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();
+  Stage stage_ = Stage::kLm;
+  // Scale search on log(s): grid point k, best so far; golden bracket [lo, hi] with x1 < x2.
+  int grid_k_ = 0;
+  int grid_n_ = 0;
+  Scalar best_log_ = Scalar(0), best_cost_ = Scalar(0);
+  Scalar lo_ = Scalar(0), hi_ = Scalar(0), x1_ = Scalar(0), x2_ = Scalar(0);
+  Scalar f1_ = Scalar(0), f2_ = Scalar(0);
+  int golden_k_ = 0;
+  int evaluations_ = 0;
+  Status status_ = Status::kNotStarted;
+};
+
+extern template class GyroSolver<float, kGyroMatrixParams>;
+extern template class GyroSolver<float, kGyroParams>;
+extern template class GyroSolver<double, kGyroMatrixParams>;
+extern template class GyroSolver<double, kGyroParams>;
+
+}  // namespace imucal

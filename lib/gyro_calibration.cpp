@@ -1,0 +1,175 @@
+#include "imucal/gyro_calibration.hpp"
+
+namespace imucal {
+
+namespace {
+
+// Golden-section ratio (sqrt(5) - 1) / 2.
+template <typename Scalar>
+constexpr Scalar kGolden = Scalar(0.6180339887498949);
+
+// log(sqrt(2)): the grid step of the scale search.
+template <typename Scalar>
+constexpr Scalar kGridStep = Scalar(0.34657359027997264);
+
+}  // namespace
+
+template <typename Scalar, int N>
+typename GyroSolver<Scalar, N>::Vector GyroSolver<Scalar, N>::scaled_identity(Scalar s) const {
+  Vector p = Vector::Zero();
+  p(kGyroScaleX) = p(kGyroScaleY) = p(kGyroScaleZ) = s;
+  return p;
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<Scalar>& b0) {
+  problem_.data = data;
+  b0_ = b0;
+  evaluations_ = 0;
+  cursor_ = typename Problem::Cursor{};
+  if (!all_finite(b0)) return status_ = Status::kNonFiniteInput;
+  if (data.move_count < 0 || data.pose_count < 0 || settings_.segments_per_step < 1 ||
+      !(settings_.nominal_scale >= Scalar(0)) || !(settings_.search_min > Scalar(0)) ||
+      !(settings_.search_max > settings_.search_min))
+    return status_ = Status::kInvalidArgument;
+  if (data.move_count < gyro_min_moves(N)) return status_ = Status::kTooFewMoves;
+  for (int k = 0; k < data.move_count; ++k) {
+    const GyroMove& m = data.moves[k];
+    if (m.from_pose < 0 || m.from_pose >= data.pose_count || m.to_pose < 0 ||
+        m.to_pose >= data.pose_count || m.segments < 0 || m.first_segment < 0)
+      return status_ = Status::kInvalidArgument;
+  }
+  if (settings_.nominal_scale > Scalar(0)) return begin_lm(settings_.nominal_scale);
+  // No scale given: a grid over log(s) in steps of sqrt(2), then golden section around the best.
+  stage_ = Stage::kGrid;
+  grid_k_ = 0;
+  grid_n_ = 1 + static_cast<int>(std::log(settings_.search_max / settings_.search_min) /
+                                 kGridStep<Scalar>);
+  best_cost_ = Scalar(-1);
+  return status_ = Status::kRunning;
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::begin_lm(Scalar s) {
+  stage_ = Stage::kLm;
+  cursor_ = typename Problem::Cursor{};
+  return status_ = lm_.begin(scaled_identity(s));
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::step() {
+  if (status_ != Status::kRunning) return status_;
+  return stage_ == Stage::kLm ? lm_step() : search_step();
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::search_step() {
+  const Scalar log_min = std::log(settings_.search_min);
+  Scalar x = Scalar(0);
+  if (stage_ == Stage::kGrid) {
+    x = log_min + static_cast<Scalar>(grid_k_) * kGridStep<Scalar>;
+  } else {
+    x = golden_k_ % 2 == 0 ? x1_ : x2_;
+  }
+  const Status s =
+      problem_.cost_slice(scaled_identity(std::exp(x)), cursor_, settings_.segments_per_step);
+  if (s == Status::kRunning) return status_;
+  if (s != Status::kOk) return status_ = s;
+  const Scalar f = cursor_.cost;
+  cursor_ = typename Problem::Cursor{};
+  ++evaluations_;
+  if (stage_ == Stage::kGrid) {
+    if (best_cost_ < Scalar(0) || f < best_cost_) {
+      best_cost_ = f;
+      best_log_ = x;
+    }
+    if (++grid_k_ < grid_n_) return status_;
+    // Golden section on [best - step, best + step]: evaluate x1 first, then x2.
+    stage_ = Stage::kGolden;
+    lo_ = best_log_ - kGridStep<Scalar>;
+    hi_ = best_log_ + kGridStep<Scalar>;
+    x1_ = hi_ - kGolden<Scalar> * (hi_ - lo_);
+    x2_ = lo_ + kGolden<Scalar> * (hi_ - lo_);
+    golden_k_ = 0;
+    return status_;
+  }
+  // Golden section: golden_k_ 0 and 1 evaluate x1 and x2; afterwards the one new point.
+  if (golden_k_ == 0) {
+    f1_ = f;
+    golden_k_ = 1;
+    return status_;
+  }
+  if (golden_k_ == 1) {
+    f2_ = f;
+  } else if (golden_k_ % 2 == 0) {
+    f1_ = f;
+  } else {
+    f2_ = f;
+  }
+  // Shrink the bracket and name the next point to evaluate (even k: x1, odd k: x2).
+  if (f1_ < f2_) {
+    hi_ = x2_;
+    x2_ = x1_;
+    f2_ = f1_;
+    x1_ = hi_ - kGolden<Scalar> * (hi_ - lo_);
+    golden_k_ = 2;
+  } else {
+    lo_ = x1_;
+    x1_ = x2_;
+    f1_ = f2_;
+    x2_ = lo_ + kGolden<Scalar> * (hi_ - lo_);
+    golden_k_ = 3;
+  }
+  // Stop at a bracket of 0.1 % in scale: the LM does the rest.
+  if (hi_ - lo_ < Scalar(1e-3)) return begin_lm(std::exp(Scalar(0.5) * (lo_ + hi_)));
+  return status_;
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::lm_step() {
+  if (!lm_.evaluation_pending()) return status_ = lm_.status();
+  const Status s = problem_.accumulate_slice(lm_.evaluation_point(), lm_.evaluation_accumulator(),
+                                             cursor_, settings_.segments_per_step);
+  if (s == Status::kRunning) return status_;
+  cursor_ = typename Problem::Cursor{};
+  ++evaluations_;
+  return status_ = lm_.evaluated(s);
+}
+
+template <typename Scalar, int N>
+Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
+  out = GyroCalibration<Scalar>{};
+  out.status = status_;
+  out.moves = problem_.data.move_count;
+  out.iterations = lm_.iterations();
+  out.bias_refined = N == kGyroParams;
+  if (!succeeded(status_)) return out.status;
+  const auto& ne = lm_.normal_equations();
+  Vector sd;
+  const Status cs = ne.standard_deviations(sd);
+  if (cs != Status::kOk) return out.status = cs;
+  const Vector& p = lm_.parameters();
+  // Unobservable: a misalignment or a relative scale, or the bias in rad/s, too uncertain.
+  const Scalar limit = settings_.max_normalised_sigma;
+  for (int k = 0; k < N; ++k) {
+    Scalar normalised = sd(k);
+    if (k >= kGyroScaleX && k <= kGyroScaleZ) normalised = sd(k) / std::abs(p(k));
+    if (k >= kGyroBiasX) normalised = sd(k) * std::abs(p(kGyroScaleX + (k - kGyroBiasX)));
+    if (!(normalised <= limit)) return out.status = Status::kUnobservable;
+  }
+  out.params.template head<kGyroMatrixParams>() = p.template head<kGyroMatrixParams>();
+  out.sigma.template head<N>() = sd;
+  Vector3<Scalar> bias = b0_;
+  if constexpr (N == kGyroParams) bias += p.template tail<3>();
+  out.params.template tail<3>() = bias;
+  const Scalar moves = static_cast<Scalar>(problem_.data.move_count);
+  out.residual_rms = std::sqrt(ne.weighted_sse() / moves);
+  return out.status;
+}
+
+template class GyroSolver<float, kGyroMatrixParams>;
+template class GyroSolver<float, kGyroParams>;
+template class GyroSolver<double, kGyroMatrixParams>;
+template class GyroSolver<double, kGyroParams>;
+
+}  // namespace imucal
