@@ -3,6 +3,9 @@
 #pragma once
 
 #include "imucal/accel_calibration.hpp"
+#include "imucal/calibrator.hpp"
+#include "imucal/gyro_calibration.hpp"
+#include "imucal/gyro_model.hpp"
 #include "imucal/accel_model.hpp"
 #include "imucal/gyro_segment.hpp"
 #include "imucal/levenberg_marquardt.hpp"

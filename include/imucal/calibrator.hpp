@@ -1,0 +1,866 @@
+// imucal/calibrator.hpp: the streaming calibrator. The firmware hands it every raw sample
+// (timestamp, accelerometer, gyroscope) and follows the progress it reports; at the end it
+// solves, in bounded slices, for the accelerometer and the gyroscope calibration. No raw sample
+// is stored: rests become pose means, moves become second-order segment statistics
+// (math.md sections 4 and 5), all in fixed stores sized at compile time.
+//
+// The stream, per sample:
+//   1. Initial rest (initial_rest_seconds): gyro bias b0, the noise levels that set the
+//      stillness thresholds, the sample period. Checked for motion (quarter means).
+//   2. Stillness, causal: exponential moving averages with time constant detector_seconds of
+//      the accelerometer variance (per axis, norm compared with accel_k x the initial rest's) and
+//      of the gyro energy |w + b0|^2 (compared with gyro_k x the initial rest's).
+//   3. Samples are folded into short blocks (at most block_seconds, all still or all moving,
+//      each a valid gyro segment). Still blocks wait in a delay line of trim_seconds: a still
+//      block that is followed by trim_seconds of stillness joins the current rest; when motion
+//      comes, the blocks still in the line (the rest's last trim_seconds) go to the move. A rest
+//      becomes a pose when motion ends it, if it lasted min_rest_seconds; a shorter one is part
+//      of the move. A noisy sample can therefore end a rest but never splits one pose in two
+//      with the samples in between lost: everything between two poses is integrated.
+//   4. Moves: every non-pose block's gyro statistics go to the segment store, merged with the
+//      previous segment while the merged one stays a small, nearly single-axis rotation
+//      (segment_max_angle, segment_max_error). When the store is full, adjacent segments of each
+//      move are merged pairwise (exact) and the thresholds doubled: accuracy degrades
+//      gracefully instead of data being lost.
+//
+// Full pose store: new rests are not stored (kCapacityExceeded is reported once, the phase is
+// ready, the hint says solve). Poses are chained by the moves between them, so replacing a pose
+// would break two gyro residuals; the capacity is sized for the protocol instead (Tedaldi uses
+// 36-50 poses), and the coverage report tells the user which faces are still missing.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+
+#include "imucal/accel_calibration.hpp"
+#include "imucal/gyro_calibration.hpp"
+#include "imucal/gyro_segment.hpp"
+#include "imucal/pose_store.hpp"
+#include "imucal/status.hpp"
+
+namespace imucal {
+
+template <typename Scalar>
+struct ImuSample {
+  std::uint32_t t_us = 0;  // microseconds, wrapping (differences are taken modulo 2^32)
+  Vector3<Scalar> acc = Vector3<Scalar>::Zero();   // raw accelerometer (counts or m/s^2)
+  Vector3<Scalar> gyro = Vector3<Scalar>::Zero();  // raw gyroscope (counts or rad/s)
+  // Reserved for the temperature model (issue 6): not read yet.
+  Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN();
+};
+
+template <typename Scalar>
+struct CalibratorSettings {
+  Scalar initial_rest_seconds = Scalar(10);  // Tedaldi's protocol uses about 50 s
+  Scalar min_rest_seconds = Scalar(1);       // a shorter rest is not a pose
+  Scalar trim_seconds = Scalar(0.3);         // cut from a rest's end before the motion showed
+  Scalar detector_seconds = Scalar(0.1);     // time constant of the moving averages
+  Scalar accel_k = Scalar(4);                // threshold on the accelerometer variance norm
+  Scalar gyro_k = Scalar(8);                 // threshold on the gyro energy
+  Scalar block_seconds = Scalar(0.1);        // granularity of the trimming
+  Scalar gap_factor = Scalar(5);             // a step above this x the mean period is a gap
+  Scalar max_step_seconds = Scalar(0.5);     // a gap whatever the period (initial rest too)
+  Scalar frozen_seconds = Scalar(0.5);       // identical readings this long: sensor frozen
+  // Segments (math.md section 4): path angle and |alpha||beta| (rad^3) bounds. The defaults keep
+  // the second-order expansion within ~2e-5 rad per coning move (test_gyro_segment).
+  Scalar segment_max_angle = Scalar(0.6);
+  Scalar segment_max_error = Scalar(3e-4);
+  // Raw accelerometer reading at zero acceleration, if roughly known (e.g. 32768 for unsigned
+  // 16-bit counts); only used to tell which face is up for the coverage report. NaN: estimated
+  // from the poses' spread.
+  Vector3<Scalar> accel_zero_hint =
+      Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::quiet_NaN());
+  int target_poses = 24;  // ready when this many poses cover all six faces
+  AccelSettings<Scalar> accel{};
+  // gyro.nominal_scale (rad/s per unit), if given, also sizes the segments; otherwise they start
+  // as for rad/s and the store coarsens as needed.
+  GyroSettings<Scalar> gyro{};
+};
+
+enum class Phase : std::uint8_t {
+  kInitialRest,  // hold still
+  kCollecting,   // turning and resting
+  kReady,        // enough poses and coverage: solve() may be called (more poses still help)
+  kSolving,      // solve_step() until it returns something other than kRunning
+  kDone,         // calibration() holds the result
+  kFailed,       // calibration() says why (status fields); the collected data are kept
+};
+
+enum class Hint : std::uint8_t {
+  kHoldStill,      // initial rest in progress
+  kTurnToFace,     // put the face progress.next_face up and hold it
+  kHoldLonger,     // the last rest was too short to count
+  kTurnAboutAxis,  // turn more about body axis progress.next_axis
+  kCheckSensor,    // frozen sensor or gaps in the stream
+  kSolve,          // ready: call solve()
+  kNone,
+};
+
+enum class Quality : std::uint8_t { kNone, kPoor, kFair, kGood };
+
+struct Progress {
+  Phase phase = Phase::kInitialRest;
+  Hint hint = Hint::kHoldStill;
+  Status last_event = Status::kOk;  // the latest notable event of the stream
+  float initial_rest_done = 0.0f;   // fraction of the initial rest completed
+  int poses = 0;
+  int moves = 0;
+  int segments = 0;
+  std::uint8_t faces = 0;  // bit i: face i up (+x, -x, +y, -y, +z, -z) has a pose
+  int faces_covered = 0;
+  int next_face = 0;             // for kTurnToFace
+  std::uint8_t axes_turned = 0;  // bit i: enough rotation about body axis i
+  int next_axis = 0;             // for kTurnAboutAxis
+  int rests_too_short = 0;
+  int moves_dropped = 0;  // across gaps, frozen spells, capacity, or the end
+  int coarsenings = 0;    // times the segment store was merged pairwise
+  std::uint32_t samples_refused = 0;
+};
+
+template <typename Scalar>
+struct Calibration {
+  AccelCalibration<Scalar> accel{};
+  GyroCalibration<Scalar> gyro{};
+  Quality quality = Quality::kNone;
+};
+
+template <typename Scalar, int MaxPoses = 48, int MaxSegments = 560, int DelayBlocks = 8>
+class Calibrator {
+ public:
+  static_assert(MaxPoses >= kAccelMinPoses, "too few poses for the accelerometer model");
+  static_assert(MaxSegments >= 2 * MaxPoses, "segment store too small for the poses");
+  static_assert(DelayBlocks >= 2, "delay line too short");
+  static constexpr int kMaxPoses = MaxPoses;
+  static constexpr int kMaxSegments = MaxSegments;
+
+  explicit Calibrator(const CalibratorSettings<Scalar>& settings = CalibratorSettings<Scalar>())
+      : settings_(settings),
+        accel_solver_(settings.accel),
+        gyro9_(settings.gyro),
+        gyro12_(settings.gyro) {
+    reset();
+  }
+
+  // Forgets everything collected and starts again with the initial rest.
+  void reset() {
+    phase_ = Phase::kInitialRest;
+    last_event_ = Status::kOk;
+    have_prev_ = false;
+    frozen_time_ = Scalar(0);
+    frozen_ = false;
+    poses_.clear();
+    move_count_ = 0;
+    seg_count_ = 0;
+    chain_from_ = -1;
+    move_first_ = 0;
+    last_mergeable_ = false;
+    rest_open_ = false;
+    block_ = Block{};
+    delay_count_ = 0;
+    delay_head_ = 0;
+    rests_too_short_ = moves_dropped_ = coarsenings_ = 0;
+    samples_refused_ = 0;
+    last_rest_short_ = false;
+    rotation_ = Vector3<Scalar>::Zero();
+    calibration_ = Calibration<Scalar>{};
+    restart_initial_rest();
+    const Scalar scale =
+        settings_.gyro.nominal_scale > Scalar(0) ? settings_.gyro.nominal_scale : Scalar(1);
+    seg_angle_ = settings_.segment_max_angle / scale;
+    seg_error_ = settings_.segment_max_error / (scale * scale * scale);
+    settings_ok_ = check_settings();
+  }
+
+  // One raw sample. kOk: taken. Refused (nothing collected is lost): kNonFiniteInput,
+  // kTimeNotIncreasing, kSensorFrozen, kBusy, kInvalidArgument (settings). Taken with a note:
+  // kTimestampGap, kInitialRestDisturbed, kCapacityExceeded (pose store full).
+  Status add(const ImuSample<Scalar>& s) {
+    if (!settings_ok_) return refuse(Status::kInvalidArgument);
+    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed)
+      return refuse(Status::kBusy);
+    if (!all_finite(s.acc) || !all_finite(s.gyro)) return refuse(Status::kNonFiniteInput);
+    Scalar dt = Scalar(0);
+    if (have_prev_) {
+      const auto step = static_cast<std::int32_t>(s.t_us - t_prev_);
+      if (step <= 0) return refuse(Status::kTimeNotIncreasing);
+      dt = static_cast<Scalar>(step) * Scalar(1e-6);
+    }
+    // Frozen: either sensor's reading bit-identical to its previous one for frozen_seconds.
+    if (have_prev_ && (s.acc == acc_prev_ || s.gyro == gyro_prev_)) {
+      frozen_time_ += dt;
+      t_prev_ = s.t_us;
+      if (frozen_time_ >= settings_.frozen_seconds) {
+        if (!frozen_) on_frozen();
+        frozen_ = true;
+        ++samples_refused_;
+        return Status::kSensorFrozen;
+      }
+    } else {
+      frozen_time_ = Scalar(0);
+      if (frozen_) {
+        frozen_ = false;
+        have_prev_ = false;  // the stream starts again after the frozen spell
+      }
+    }
+    acc_prev_ = s.acc;
+    gyro_prev_ = s.gyro;
+    Status result = Status::kOk;
+    if (have_prev_ && dt > gap_limit()) {
+      on_gap();
+      result = last_event_ = Status::kTimestampGap;
+      have_prev_ = false;
+    }
+    if (!have_prev_) dt = Scalar(0);  // first sample after a start or a gap: no interval
+    have_prev_ = true;
+    t_prev_ = s.t_us;
+    if (phase_ == Phase::kInitialRest) {
+      const Status r = initial_rest_sample(s, dt);
+      return r == Status::kOk ? result : r;
+    }
+    collect_sample(s, dt);
+    if (pose_store_full_reported_ && result == Status::kOk) {
+      pose_store_full_reported_ = false;
+      return Status::kCapacityExceeded;
+    }
+    return result;
+  }
+
+  Progress progress() const {
+    Progress p;
+    p.phase = phase_;
+    p.last_event = last_event_;
+    p.initial_rest_done = phase_ == Phase::kInitialRest
+                              ? static_cast<float>(init_.elapsed / settings_.initial_rest_seconds)
+                              : 1.0f;
+    p.poses = poses_.size();
+    p.moves = move_count_;
+    p.segments = seg_count_;
+    p.rests_too_short = rests_too_short_;
+    p.moves_dropped = moves_dropped_;
+    p.coarsenings = coarsenings_;
+    p.samples_refused = samples_refused_;
+    p.faces = faces();
+    for (int i = 0; i < 6; ++i) p.faces_covered += (p.faces >> i) & 1;
+    p.next_face = 0;
+    while (p.next_face < 5 && ((p.faces >> p.next_face) & 1)) ++p.next_face;
+    const Scalar most = rotation_.maxCoeff();
+    for (int i = 0; i < 3; ++i)
+      if (most > Scalar(0) && rotation_(i) >= Scalar(0.2) * most)
+        p.axes_turned = static_cast<std::uint8_t>(p.axes_turned | (1u << i));
+    p.next_axis = 0;
+    while (p.next_axis < 2 && ((p.axes_turned >> p.next_axis) & 1)) ++p.next_axis;
+    p.hint = hint(p);
+    return p;
+  }
+
+  // Ends the collection and starts the solve. kRunning: call solve_step() until it returns
+  // something else. kTooFewPoses: nothing is changed, collection may go on.
+  Status solve() {
+    if (phase_ == Phase::kSolving) return Status::kRunning;
+    if (phase_ == Phase::kDone || phase_ == Phase::kFailed) return calibration_status();
+    if (phase_ == Phase::kInitialRest) return Status::kTooFewPoses;
+    const bool pending_pose = rest_open_ && rest_long_enough(true) && !poses_.full();
+    if (poses_.size() + (pending_pose ? 1 : 0) < kAccelMinPoses) return Status::kTooFewPoses;
+    end_of_stream();
+    phase_ = Phase::kSolving;
+    stage_ = SolveStage::kAccel;
+    const Status s = accel_solver_.start(poses_.span());
+    if (s != Status::kRunning && s != Status::kOk && !succeeded(s)) return fail_accel();
+    return Status::kRunning;
+  }
+
+  // One bounded slice of the solve: one accelerometer LM iteration, or at most
+  // gyro.segments_per_step segments of the gyro run.
+  Status solve_step() {
+    if (phase_ != Phase::kSolving)
+      return phase_ == Phase::kDone     ? Status::kOk
+             : phase_ == Phase::kFailed ? calibration_status()
+                                        : Status::kNotStarted;
+    if (stage_ == SolveStage::kAccel) {
+      const Status s = accel_solver_.status() == Status::kRunning ? accel_solver_.step()
+                                                                  : accel_solver_.status();
+      if (s == Status::kRunning) return s;
+      if (!succeeded(accel_solver_.finish(calibration_.accel))) return fail_accel();
+      start_gyro();
+      return Status::kRunning;
+    }
+    const Status s = settings_.gyro.refine_bias ? gyro12_.step() : gyro9_.step();
+    if (s == Status::kRunning) return s;
+    if (settings_.gyro.refine_bias)
+      gyro12_.finish(calibration_.gyro);
+    else
+      gyro9_.finish(calibration_.gyro);
+    calibration_.quality = quality();
+    phase_ = succeeded(calibration_.gyro.status) ? Phase::kDone : Phase::kFailed;
+    return calibration_.gyro.status;
+  }
+
+  // Both in one call (host tools, tests): solve() then solve_step() to the end.
+  Status solve_all() {
+    Status s = solve();
+    while (s == Status::kRunning) s = solve_step();
+    return s;
+  }
+
+  const Calibration<Scalar>& calibration() const { return calibration_; }
+  PoseSpan<Scalar> poses() const { return poses_.span(); }
+  // Time span of pose i: first and last sample's timestamps.
+  std::uint32_t pose_begin_us(int i) const { return pose_time_[i][0]; }
+  std::uint32_t pose_end_us(int i) const { return pose_time_[i][1]; }
+  int move_count() const { return move_count_; }
+  const GyroMove& move(int i) const { return moves_[i]; }
+  int segment_count() const { return seg_count_; }
+  // The initial-rest gyro bias (added, sensor units) and the per-axis noise variances.
+  const Vector3<Scalar>& gyro_bias0() const { return b0_; }
+  const Vector3<Scalar>& accel_noise_variance() const { return v0_; }
+  Scalar mean_period() const { return period_; }
+  const CalibratorSettings<Scalar>& settings() const { return settings_; }
+
+ private:
+  enum class SolveStage : std::uint8_t { kAccel, kGyro };
+
+  // A run of consecutive samples, all still or all moving: acceleration sum (relative to
+  // a_ref_), gyro statistics (of u = w + b0), path angle sum |u| dt, time span.
+  struct Block {
+    GyroSegment<Scalar> seg{};
+    Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
+    Scalar path = Scalar(0);
+    std::uint32_t n = 0;
+    std::uint32_t t_begin = 0;
+    std::uint32_t t_end = 0;
+    bool still = true;
+
+    void append(const Block& later) {
+      seg.append(later.seg);
+      acc_sum += later.acc_sum;
+      path += later.path;
+      if (n == 0) t_begin = later.t_begin;
+      n += later.n;
+      t_end = later.t_end;
+    }
+  };
+
+  struct InitialRest {
+    Scalar elapsed = Scalar(0);
+    std::uint32_t n = 0;
+    std::uint32_t t_begin = 0, t_end = 0;
+    Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero(), acc_sq = Vector3<Scalar>::Zero();
+    Vector3<Scalar> gyro_sum = Vector3<Scalar>::Zero(), gyro_sq = Vector3<Scalar>::Zero();
+    // Quarter sums, to see a drift of the means (the unit moved during the initial rest).
+    Vector3<Scalar> acc_q[4] = {}, gyro_q[4] = {};
+    std::uint32_t n_q[4] = {};
+  };
+
+  bool check_settings() const {
+    const CalibratorSettings<Scalar>& c = settings_;
+    return c.initial_rest_seconds >= c.min_rest_seconds && c.min_rest_seconds > Scalar(0) &&
+           c.trim_seconds >= Scalar(0) && c.detector_seconds > Scalar(0) && c.accel_k > Scalar(1) &&
+           c.gyro_k > Scalar(1) && c.block_seconds > Scalar(0) &&
+           c.trim_seconds <= c.block_seconds * Scalar(DelayBlocks - 1) &&
+           c.gap_factor > Scalar(1) && c.max_step_seconds > Scalar(0) &&
+           c.frozen_seconds > Scalar(0) && c.segment_max_angle > Scalar(0) &&
+           c.segment_max_error > Scalar(0) && c.gyro.nominal_scale >= Scalar(0);
+  }
+
+  Status refuse(Status s) {
+    ++samples_refused_;
+    return s;
+  }
+
+  Scalar gap_limit() const {
+    if (phase_ == Phase::kInitialRest || !(period_ > Scalar(0))) return settings_.max_step_seconds;
+    const Scalar relative = settings_.gap_factor * period_;
+    return relative < settings_.max_step_seconds ? relative : settings_.max_step_seconds;
+  }
+
+  // ---- Initial rest --------------------------------------------------------------------------
+
+  void restart_initial_rest() {
+    phase_ = Phase::kInitialRest;
+    init_ = InitialRest{};
+  }
+
+  Status initial_rest_sample(const ImuSample<Scalar>& s, Scalar dt) {
+    if (init_.n == 0) {
+      a_ref_ = s.acc;
+      g_ref_ = s.gyro;
+      init_.t_begin = s.t_us;
+    }
+    init_.elapsed += dt;
+    const Vector3<Scalar> a = s.acc - a_ref_, g = s.gyro - g_ref_;
+    init_.acc_sum += a;
+    init_.acc_sq += a.cwiseProduct(a);
+    init_.gyro_sum += g;
+    init_.gyro_sq += g.cwiseProduct(g);
+    int q = static_cast<int>(Scalar(4) * init_.elapsed / settings_.initial_rest_seconds);
+    q = q > 3 ? 3 : q;
+    init_.acc_q[q] += a;
+    init_.gyro_q[q] += g;
+    ++init_.n_q[q];
+    ++init_.n;
+    init_.t_end = s.t_us;
+    if (init_.elapsed < settings_.initial_rest_seconds) return Status::kOk;
+    return finish_initial_rest();
+  }
+
+  Status finish_initial_rest() {
+    const Scalar n = static_cast<Scalar>(init_.n);
+    const Vector3<Scalar> acc_mean = init_.acc_sum / n, gyro_mean = init_.gyro_sum / n;
+    v0_ = (init_.acc_sq / n - acc_mean.cwiseProduct(acc_mean)).cwiseMax(Scalar(0));
+    const Vector3<Scalar> gv =
+        (init_.gyro_sq / n - gyro_mean.cwiseProduct(gyro_mean)).cwiseMax(Scalar(0));
+    // No noise on an axis: a frozen or disconnected sensor, no threshold can be set from it.
+    if (!(v0_.minCoeff() > Scalar(0)) || !(gv.minCoeff() > Scalar(0))) {
+      restart_initial_rest();
+      return last_event_ = Status::kSensorFrozen;
+    }
+    // Motion during the rest shows as quarter means further apart than the noise allows
+    // (8 sigma of a quarter mean: the Xsens's slow drift over 50 s stays well inside).
+    for (int q = 0; q < 4; ++q) {
+      if (init_.n_q[q] == 0) continue;
+      const Scalar nq = static_cast<Scalar>(init_.n_q[q]);
+      const Vector3<Scalar> da = init_.acc_q[q] / nq - acc_mean;
+      const Vector3<Scalar> dg = init_.gyro_q[q] / nq - gyro_mean;
+      const Scalar limit = Scalar(64) / nq;  // (8 sigma)^2 / n_q, per unit variance
+      for (int i = 0; i < 3; ++i) {
+        if (da(i) * da(i) > limit * v0_(i) || dg(i) * dg(i) > limit * gv(i)) {
+          restart_initial_rest();
+          return last_event_ = Status::kInitialRestDisturbed;
+        }
+      }
+    }
+    b0_ = -(g_ref_ + gyro_mean);
+    e0_ = gv.sum();
+    period_ = init_.elapsed / (n - Scalar(1));
+    // The detector starts from the rest's own statistics.
+    ema_mean_ = acc_mean;
+    ema_var_ = v0_;
+    ema_energy_ = e0_;
+    // The initial rest is the first rest: it becomes pose 0 when the first move starts.
+    rest_ = Block{};
+    rest_.acc_sum = init_.acc_sum;
+    rest_.n = init_.n;
+    rest_.t_begin = init_.t_begin;
+    rest_.t_end = init_.t_end;
+    rest_open_ = true;
+    block_ = Block{};
+    phase_ = Phase::kCollecting;
+    return Status::kOk;
+  }
+
+  // ---- Collection ----------------------------------------------------------------------------
+
+  void collect_sample(const ImuSample<Scalar>& s, Scalar dt) {
+    const Vector3<Scalar> a = s.acc - a_ref_;
+    const Vector3<Scalar> u = s.gyro + b0_;
+    // Moving averages weighted by the actual step: sample-rate jitter changes nothing.
+    const Scalar w = dt / (settings_.detector_seconds + dt);
+    const Vector3<Scalar> d = a - ema_mean_;
+    ema_mean_ += w * d;
+    ema_var_ = (Scalar(1) - w) * (ema_var_ + w * d.cwiseProduct(d));
+    const Scalar energy = u.squaredNorm();
+    ema_energy_ += w * (energy - ema_energy_);
+    const Scalar ka = settings_.accel_k, kg = settings_.gyro_k;
+    const bool still =
+        ema_var_.squaredNorm() <= ka * ka * v0_.squaredNorm() && ema_energy_ <= kg * e0_;
+    // Blocks are homogeneous, short, and valid segments: close before a change of state or
+    // a path angle above the segment bound, after the duration or the error bound.
+    const Scalar step_path = std::sqrt(energy) * dt;
+    if (block_.n > 0 && (still != block_.still || block_.path + step_path > seg_angle_))
+      close_block();
+    if (block_.n == 0) {
+      block_.still = still;
+      block_.t_begin = s.t_us;
+    }
+    block_.seg.add(u, dt);
+    block_.acc_sum += a;
+    block_.path += step_path;
+    ++block_.n;
+    block_.t_end = s.t_us;
+    if (static_cast<Scalar>(s.t_us - block_.t_begin) * Scalar(1e-6) >= settings_.block_seconds ||
+        block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > seg_error_ * seg_error_)
+      close_block();
+  }
+
+  void close_block() {
+    const Block b = block_;
+    block_ = Block{};
+    if (b.n == 0) return;
+    if (b.still) {
+      delay_push(b);
+      // A still block is part of the rest once trim_seconds of stillness follow it.
+      while (delay_count_ > 0 &&
+             (delay_count_ == DelayBlocks || delay_span_after_oldest() >= settings_.trim_seconds))
+        rest_add(delay_pop());
+      return;
+    }
+    // Motion: the rest (if any) ends, the trimmed blocks and this one belong to the move.
+    end_rest();
+    while (delay_count_ > 0) push_segment(delay_pop());
+    push_segment(b);
+  }
+
+  void delay_push(const Block& b) {
+    delay_[(delay_head_ + delay_count_) % DelayBlocks] = b;
+    ++delay_count_;
+  }
+  Block delay_pop() {
+    const Block b = delay_[delay_head_];
+    delay_head_ = (delay_head_ + 1) % DelayBlocks;
+    --delay_count_;
+    return b;
+  }
+  Scalar delay_span_after_oldest() const {
+    if (delay_count_ < 2) return Scalar(0);
+    const Block& oldest = delay_[delay_head_];
+    const Block& newest = delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks];
+    return static_cast<Scalar>(newest.t_end - oldest.t_end) * Scalar(1e-6);
+  }
+
+  void rest_add(const Block& b) {
+    if (!rest_open_) {
+      rest_ = b;
+      rest_open_ = true;
+      return;
+    }
+    rest_.append(b);
+  }
+
+  bool rest_long_enough(bool with_delay_line) const {
+    std::uint32_t end = rest_.t_end;
+    if (with_delay_line && delay_count_ > 0)
+      end = delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks].t_end;
+    return static_cast<Scalar>(end - rest_.t_begin) * Scalar(1e-6) >= settings_.min_rest_seconds;
+  }
+
+  // The open rest ends (motion, gap, end of stream): a pose if long enough, else part of the
+  // move in progress.
+  void end_rest() {
+    if (!rest_open_) return;
+    rest_open_ = false;
+    if (!rest_long_enough(false)) {
+      ++rests_too_short_;
+      last_rest_short_ = true;
+      last_event_ = Status::kRestTooShort;
+      push_segment(rest_);
+      return;
+    }
+    last_rest_short_ = false;
+    if (poses_.full()) {
+      // Not stored (see the top of this file); the chain cannot continue past it.
+      if (last_event_ != Status::kCapacityExceeded) pose_store_full_reported_ = true;
+      last_event_ = Status::kCapacityExceeded;
+      drop_move();
+      return;
+    }
+    const Scalar n = static_cast<Scalar>(rest_.n);
+    if (poses_.add(a_ref_ + rest_.acc_sum / n, rest_.n) != Status::kOk) {
+      drop_move();
+      return;
+    }
+    const int index = poses_.size() - 1;
+    pose_time_[index][0] = rest_.t_begin;
+    pose_time_[index][1] = rest_.t_end;
+    if (chain_from_ >= 0 && seg_count_ > move_first_) {
+      GyroMove& m = moves_[move_count_++];
+      m.first_segment = move_first_;
+      m.segments = seg_count_ - move_first_;
+      m.from_pose = chain_from_;
+      m.to_pose = index;
+      for (int k = m.first_segment; k < seg_count_; ++k) rotation_ += segments_[k].alpha.cwiseAbs();
+    }
+    chain_from_ = index;
+    move_first_ = seg_count_;
+    last_mergeable_ = false;
+    if (phase_ == Phase::kCollecting && poses_.size() >= settings_.target_poses && faces() == 0x3f)
+      phase_ = Phase::kReady;
+    if (poses_.full()) phase_ = Phase::kReady;
+  }
+
+  // Appends a block's gyro statistics to the move in progress, merged into the last segment
+  // while the merged segment stays within the bounds.
+  void push_segment(const Block& b) {
+    if (chain_from_ < 0 || b.n == 0) return;  // no pose to start from: nothing to integrate
+    if (last_mergeable_ && seg_count_ > move_first_ && last_path_ + b.path <= seg_angle_) {
+      GyroSegment<Scalar> merged = segments_[seg_count_ - 1];
+      merged.append(b.seg);
+      if (merged.alpha.squaredNorm() * merged.beta.squaredNorm() <= seg_error_ * seg_error_) {
+        segments_[seg_count_ - 1] = merged;
+        last_path_ += b.path;
+        return;
+      }
+    }
+    if (seg_count_ == MaxSegments) coarsen();
+    if (seg_count_ == MaxSegments) {  // one segment per move everywhere: nothing left to merge
+      drop_move();
+      return;
+    }
+    segments_[seg_count_++] = b.seg;
+    last_path_ = b.path;
+    last_mergeable_ = true;
+  }
+
+  // Merges adjacent segments of every move pairwise (exact), halving the store's use, and
+  // doubles the bounds so that new segments are as coarse as the merged ones.
+  void coarsen() {
+    int write = 0;
+    auto merge_range = [&](int first, int count) {
+      const int new_first = write;
+      for (int k = 0; k < count; k += 2) {
+        GyroSegment<Scalar> s = segments_[first + k];
+        if (k + 1 < count) s.append(segments_[first + k + 1]);
+        segments_[write++] = s;
+      }
+      return new_first;
+    };
+    for (int m = 0; m < move_count_; ++m) {
+      const int count = moves_[m].segments;
+      moves_[m].first_segment = merge_range(moves_[m].first_segment, count);
+      moves_[m].segments = (count + 1) / 2;
+    }
+    const int open = seg_count_ - move_first_;
+    move_first_ = merge_range(move_first_, open);
+    seg_count_ = write;
+    seg_angle_ *= Scalar(2);
+    seg_error_ *= Scalar(8);
+    last_mergeable_ = false;
+    ++coarsenings_;
+  }
+
+  // The move in progress cannot be used: its segments are freed, the chain restarts at the
+  // next pose.
+  void drop_move() {
+    if (chain_from_ >= 0 && seg_count_ > move_first_) ++moves_dropped_;
+    seg_count_ = move_first_;
+    chain_from_ = -1;
+    last_mergeable_ = false;
+  }
+
+  // A gap: the rest before it still counts (trimmed as before motion); the move across it is
+  // dropped.
+  void on_gap() {
+    if (phase_ == Phase::kInitialRest) {
+      restart_initial_rest();
+      return;
+    }
+    flush_blocks_as_motion();
+    drop_move();
+  }
+
+  // A frozen sensor: the samples since it froze may already sit in the rest, so the rest in
+  // progress is discarded with the move.
+  void on_frozen() {
+    last_event_ = Status::kSensorFrozen;
+    if (phase_ == Phase::kInitialRest) {
+      restart_initial_rest();
+      return;
+    }
+    block_ = Block{};
+    delay_count_ = 0;
+    rest_open_ = false;
+    drop_move();
+  }
+
+  // The stream is cut (gap): the current block and the delay line are treated as if motion
+  // followed, so the rest before the cut is trimmed like any other.
+  void flush_blocks_as_motion() {
+    const Block b = block_;
+    block_ = Block{};
+    if (b.n > 0 && b.still) delay_push(b);
+    end_rest();
+    while (delay_count_ > 0) push_segment(delay_pop());
+    if (b.n > 0 && !b.still) push_segment(b);
+  }
+
+  // End of the stream: if it ends still, the delay line belongs to the last rest (no motion
+  // followed); if it ends in motion, the move in progress has no pose to end at.
+  void end_of_stream() {
+    const Block b = block_;
+    block_ = Block{};
+    if (b.n > 0) {
+      if (b.still) {
+        delay_push(b);
+      } else {
+        end_rest();
+        while (delay_count_ > 0) push_segment(delay_pop());
+        push_segment(b);
+      }
+    }
+    if (delay_count_ > 0 || rest_open_) {
+      while (delay_count_ > 0) rest_add(delay_pop());
+      end_rest();
+    } else if (chain_from_ >= 0 && seg_count_ > move_first_) {
+      last_event_ = Status::kEndedInMotion;
+    }
+    drop_move();  // whatever is still open after the last pose
+  }
+
+  // ---- Solving -------------------------------------------------------------------------------
+
+  void start_gyro() {
+    stage_ = SolveStage::kGyro;
+    const AccelVector<Scalar>& pa = calibration_.accel.params;
+    for (int k = 0; k < poses_.size(); ++k) up_[k] = accel_apply(pa, poses_[k].mean).normalized();
+    GyroData<Scalar> data;
+    data.segments = segments_;
+    data.moves = moves_;
+    data.move_count = move_count_;
+    data.up = up_;
+    data.pose_count = poses_.size();
+    const Status s =
+        settings_.gyro.refine_bias ? gyro12_.start(data, b0_) : gyro9_.start(data, b0_);
+    if (s != Status::kRunning) {
+      calibration_.gyro = GyroCalibration<Scalar>{};
+      calibration_.gyro.status = s;
+      calibration_.gyro.moves = move_count_;
+      calibration_.quality = quality();
+      phase_ = Phase::kFailed;
+    }
+  }
+
+  Status fail_accel() {
+    accel_solver_.finish(calibration_.accel);
+    calibration_.quality = Quality::kNone;
+    phase_ = Phase::kFailed;
+    return calibration_.accel.status;
+  }
+
+  Status calibration_status() const {
+    if (!succeeded(calibration_.accel.status)) return calibration_.accel.status;
+    return calibration_.gyro.status;
+  }
+
+  // Good: both calibrated, all six faces, pose residuals within 3x what the noise explains, every
+  // sigma within a quarter of its bound. Fair: both calibrated. Poor: the accelerometer only.
+  Quality quality() const {
+    if (!succeeded(calibration_.accel.status)) return Quality::kNone;
+    if (!succeeded(calibration_.gyro.status)) return Quality::kPoor;
+    if (faces() != 0x3f) return Quality::kFair;
+    // Noise of a pose mean in m/s^2: the per-sample noise (initial rest) over sqrt(samples).
+    const AccelVector<Scalar>& p = calibration_.accel.params;
+    const Vector3<Scalar> sd(std::sqrt(v0_(0)) * p(kScaleX), std::sqrt(v0_(1)) * p(kScaleY),
+                             std::sqrt(v0_(2)) * p(kScaleZ));
+    Scalar mean_n = Scalar(0);
+    for (int k = 0; k < poses_.size(); ++k) mean_n += static_cast<Scalar>(poses_[k].samples);
+    mean_n /= static_cast<Scalar>(poses_.size());
+    const Scalar expected = sd.norm() / std::sqrt(Scalar(3) * mean_n);
+    if (calibration_.accel.residual_rms > Scalar(3) * expected) return Quality::kFair;
+    const GyroCalibration<Scalar>& g = calibration_.gyro;
+    const Scalar quarter = settings_.gyro.max_normalised_sigma / Scalar(4);
+    for (int k = 0; k < kGyroMatrixParams; ++k) {
+      const Scalar v = k >= kGyroScaleX ? g.sigma(k) / std::abs(g.params(k)) : g.sigma(k);
+      if (!(v <= quarter)) return Quality::kFair;
+    }
+    return Quality::kGood;
+  }
+
+  // ---- Coverage ------------------------------------------------------------------------------
+
+  std::uint8_t faces() const {
+    const int n = poses_.size();
+    if (n == 0) return 0;
+    Vector3<Scalar> zero = settings_.accel_zero_hint;
+    if (!all_finite(zero)) {
+      Vector3<Scalar> lo = poses_[0].mean, hi = poses_[0].mean;
+      for (int k = 1; k < n; ++k) {
+        lo = lo.cwiseMin(poses_[k].mean);
+        hi = hi.cwiseMax(poses_[k].mean);
+      }
+      zero = Scalar(0.5) * (lo + hi);
+      // One side seen only: the spread says nothing yet, the first pose counts as its face.
+      if (n < 2) zero = Vector3<Scalar>::Zero();
+    }
+    std::uint8_t bits = 0;
+    for (int k = 0; k < n; ++k) {
+      const Vector3<Scalar> d = poses_[k].mean - zero;
+      int axis = 0;
+      for (int i = 1; i < 3; ++i)
+        if (std::abs(d(i)) > std::abs(d(axis))) axis = i;
+      bits = static_cast<std::uint8_t>(bits | (1u << (2 * axis + (d(axis) < Scalar(0) ? 1 : 0))));
+    }
+    return bits;
+  }
+
+  Hint hint(const Progress& p) const {
+    switch (phase_) {
+      case Phase::kInitialRest:
+        return frozen_ ? Hint::kCheckSensor : Hint::kHoldStill;
+      case Phase::kSolving:
+      case Phase::kDone:
+      case Phase::kFailed:
+        return Hint::kNone;
+      case Phase::kReady:
+        return Hint::kSolve;
+      case Phase::kCollecting:
+        break;
+    }
+    if (frozen_ || last_event_ == Status::kSensorFrozen) return Hint::kCheckSensor;
+    if (last_rest_short_) return Hint::kHoldLonger;
+    if (p.faces_covered < 6) return Hint::kTurnToFace;
+    if (p.axes_turned != 0x7) return Hint::kTurnAboutAxis;
+    return Hint::kTurnToFace;  // all faces seen: more poses, anywhere new
+  }
+
+  CalibratorSettings<Scalar> settings_;
+  bool settings_ok_ = false;
+  Phase phase_ = Phase::kInitialRest;
+  SolveStage stage_ = SolveStage::kAccel;
+  Status last_event_ = Status::kOk;
+
+  // Stream state.
+  bool have_prev_ = false;
+  std::uint32_t t_prev_ = 0;
+  Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();
+  Scalar frozen_time_ = Scalar(0);
+  bool frozen_ = false;
+  InitialRest init_{};
+
+  // What the initial rest set.
+  Vector3<Scalar> a_ref_ = Vector3<Scalar>::Zero();  // acceleration sums are relative to this
+  Vector3<Scalar> g_ref_ = Vector3<Scalar>::Zero();
+  Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added
+  Vector3<Scalar> v0_ = Vector3<Scalar>::Zero();  // accelerometer variance per axis
+  Scalar e0_ = Scalar(0);                         // gyro energy at rest
+  Scalar period_ = Scalar(0);                     // mean sample period
+
+  // Detector.
+  Vector3<Scalar> ema_mean_ = Vector3<Scalar>::Zero(), ema_var_ = Vector3<Scalar>::Zero();
+  Scalar ema_energy_ = Scalar(0);
+
+  // Blocks, delay line, the open rest.
+  Block block_{};
+  Block delay_[static_cast<std::size_t>(DelayBlocks)] = {};
+  int delay_head_ = 0, delay_count_ = 0;
+  Block rest_{};
+  bool rest_open_ = false;
+  bool last_rest_short_ = false;
+  bool pose_store_full_reported_ = false;
+
+  // Stores.
+  PoseStore<Scalar, MaxPoses> poses_{};
+  std::uint32_t pose_time_[static_cast<std::size_t>(MaxPoses)][2] = {};
+  GyroMove moves_[static_cast<std::size_t>(MaxPoses)] = {};
+  int move_count_ = 0;
+  GyroSegment<Scalar> segments_[static_cast<std::size_t>(MaxSegments)] = {};
+  int seg_count_ = 0;
+  int chain_from_ = -1;  // pose the move in progress starts from (-1: none)
+  int move_first_ = 0;   // its first segment
+  bool last_mergeable_ = false;
+  Scalar last_path_ = Scalar(0);
+  Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0);  // raw units
+  Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();    // |alpha| per axis over the moves
+
+  // Counters.
+  int rests_too_short_ = 0, moves_dropped_ = 0, coarsenings_ = 0;
+  std::uint32_t samples_refused_ = 0;
+
+  // Solving.
+  Vector3<Scalar> up_[static_cast<std::size_t>(MaxPoses)] = {};
+  AccelSolver<Scalar> accel_solver_;
+  GyroSolver<Scalar, kGyroMatrixParams> gyro9_;
+  GyroSolver<Scalar, kGyroParams> gyro12_;
+  Calibration<Scalar> calibration_{};
+};
+
+}  // namespace imucal
