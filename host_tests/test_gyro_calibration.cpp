@@ -79,7 +79,7 @@ MoveSet<Scalar> make_moves(const GyroVector<double>& truth, const Vector3<double
           m_inv * w - b_true + b0 +
           raw_noise * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
       seg.add(u.cast<Scalar>(), static_cast<Scalar>(dt));
-      if (seg.samples == 6 || i == n - 1) {
+      if (i % 6 == 5 || i == n - 1) {
         set.segments.push_back(seg);
         seg = GyroSegment<Scalar>{};
       }

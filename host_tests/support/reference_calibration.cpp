@@ -277,6 +277,18 @@ std::vector<RestInterval> detect_rests(const std::vector<RawSample>& s,
   const double threshold =
       st.k * std::max(init_end >= 2 ? variance_norm(0, init_end) : 0.0, floor_sd * floor_sd);
 
+  // The gyro cue (when gyro_k > 0): mean |w - w0|^2 over the same window against gyro_k times
+  // its initial-rest value, w0 the initial-rest mean rate.
+  V3 w0 = V3::Zero();
+  for (std::size_t i = 0; i < init_end; ++i) w0 += s[i].gyro;
+  w0 /= static_cast<double>(init_end);
+  std::vector<double> e1(n + 1, 0.0);
+  for (std::size_t i = 0; i < n; ++i) e1[i + 1] = e1[i] + (s[i].gyro - w0).squaredNorm();
+  const double gyro_threshold = st.gyro_k * e1[init_end] / static_cast<double>(init_end);
+  auto gyro_still = [&](std::size_t b, std::size_t e) {
+    return st.gyro_k <= 0.0 || (e1[e] - e1[b]) / static_cast<double>(e - b) <= gyro_threshold;
+  };
+
   std::vector<char> still(n, 0);
   const double half = 0.5 * st.window_seconds;
   std::size_t lo = 0, hi = 0;
@@ -284,7 +296,8 @@ std::vector<RestInterval> detect_rests(const std::vector<RawSample>& s,
     while (lo < i && s[lo].t < s[i].t - half) ++lo;
     if (hi < i) hi = i;
     while (hi + 1 < n && s[hi + 1].t <= s[i].t + half) ++hi;
-    still[i] = i < init_end || (hi > lo && variance_norm(lo, hi + 1) <= threshold);
+    still[i] = i < init_end ||
+               (hi > lo && variance_norm(lo, hi + 1) <= threshold && gyro_still(lo, hi + 1));
   }
 
   std::size_t i = 0;
@@ -325,24 +338,42 @@ ReferenceResult reference_calibrate(const std::vector<RawSample>& s, const Refer
     return res;
   }
 
-  // Accelerometer: one pose per rest, weighted by its sample count, through the library.
-  res.rests = detect_rests(s, st);
-  if (res.rests.size() < static_cast<std::size_t>(kAccelMinPoses)) {
-    res.status = Status::kTooFewPoses;
-    return res;
-  }
+  // Accelerometer: one pose per rest, weighted by its sample count, through the library; with
+  // a k range, the k whose fit has the lowest residual RMS (imu_tk).
   std::vector<Pose<double>> poses;
-  poses.reserve(res.rests.size());
-  for (const RestInterval& iv : res.rests) {
-    V3 sum = V3::Zero();
-    for (std::size_t i = iv.begin; i < iv.end; ++i) sum += s[i].acc;
-    const std::size_t count = iv.end - iv.begin;
-    poses.push_back({sum / static_cast<double>(count), static_cast<std::uint32_t>(count)});
+  Status acc_status = Status::kTooFewPoses;
+  const double k_last = st.k_max > st.k ? st.k_max : st.k;
+  for (double k = st.k; k <= k_last + 1e-9; k += 1.0) {
+    ReferenceSettings trial = st;
+    trial.k = k;
+    const std::vector<RestInterval> rests =
+        st.given_rests != nullptr ? *st.given_rests : detect_rests(s, trial);
+    if (rests.size() < static_cast<std::size_t>(kAccelMinPoses)) continue;
+    std::vector<Pose<double>> trial_poses;
+    trial_poses.reserve(rests.size());
+    for (const RestInterval& iv : rests) {
+      V3 sum = V3::Zero();
+      for (std::size_t i = iv.begin; i < iv.end; ++i) sum += s[i].acc;
+      const std::size_t count = iv.end - iv.begin;
+      trial_poses.push_back({sum / static_cast<double>(count), static_cast<std::uint32_t>(count)});
+    }
+    AccelSettings<double> acc_settings;
+    acc_settings.gravity = st.gravity;
+    AccelCalibration<double> acc;
+    const Status ts = calibrate_accelerometer(
+        PoseSpan<double>{trial_poses.data(), static_cast<int>(trial_poses.size())}, acc_settings,
+        acc);
+    if (!succeeded(ts)) {
+      if (!succeeded(acc_status)) acc_status = ts;
+      continue;
+    }
+    if (succeeded(acc_status) && acc.residual_rms >= res.acc.residual_rms) continue;
+    acc_status = ts;
+    res.acc = acc;
+    res.rests = rests;
+    res.k = k;
+    poses = std::move(trial_poses);
   }
-  AccelSettings<double> acc_settings;
-  acc_settings.gravity = st.gravity;
-  const Status acc_status = calibrate_accelerometer(
-      PoseSpan<double>{poses.data(), static_cast<int>(poses.size())}, acc_settings, res.acc);
   if (!succeeded(acc_status)) {
     res.status = acc_status;
     return res;

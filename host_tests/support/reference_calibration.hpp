@@ -35,8 +35,18 @@ struct ReferenceSettings {
   // The first init_seconds are taken as still: they give the gyro bias (bias = -mean raw rate,
   // since the bias is ADDED) and the accelerometer variance baseline of the still detector.
   double init_seconds = 40.0;
-  double window_seconds = 0.5;    // centred window of the accelerometer variance (by timestamps)
-  double k = 2.0;                 // still when variance norm <= k * the initial rest's (imu_tk)
+  double window_seconds = 0.5;  // centred window of the accelerometer variance (by timestamps)
+  double k = 2.0;               // still when variance norm <= k * the initial rest's (imu_tk)
+  // imu_tk's selection: with k_max > k, every integer k' in [k, k_max] is tried and the one whose
+  // accelerometer fit has the lowest residual RMS is kept (the offline accelerometer-only rule
+  // is sensitive to k: 40 to 44 rests on the xsens recording).
+  double k_max = 0.0;
+  // Also require the windowed mean of |w - w0|^2 below gyro_k times its initial-rest value (the
+  // cue the streaming detector uses too); 0: accelerometer only, as imu_tk.
+  double gyro_k = 0.0;
+  // Rests given instead of detected (e.g. the streaming calibrator's own pose windows), to
+  // compare the solvers on identical data.
+  const std::vector<RestInterval>* given_rests = nullptr;
   double trim_seconds = 0.25;     // cut from both ends of each still run (not the start of rest 0)
   double min_rest_seconds = 1.0;  // still runs shorter than this after trimming are dropped
   double gyro_nominal_scale = 1.0;  // rad/s per raw unit: the LM starts from M = nominal * I
@@ -61,6 +71,7 @@ struct ReferenceResult {
   double gyro_rms_rad = 0;  // RMS over moves of the angle between R_k^T g_k and g_{k+1}
   int moves = 0;            // residual pairs (consecutive rests) used
   int iterations = 0;       // gyro LM iterations
+  double k = 0;             // the detector threshold used
 };
 
 // Body-frame rotation from sample i0 to sample i1 (i0 < i1) for the model w_cal = M (w_raw + b):

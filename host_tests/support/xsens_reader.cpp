@@ -48,6 +48,37 @@ bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& e
   return true;
 }
 
+XsensStream::~XsensStream() {
+  if (acc_ != nullptr) std::fclose(acc_);
+  if (gyro_ != nullptr) std::fclose(gyro_);
+}
+
+bool XsensStream::open(const std::string& dir) {
+  acc_ = std::fopen((dir + "/xsens_acc.mat").c_str(), "r");
+  gyro_ = std::fopen((dir + "/xsens_gyro.mat").c_str(), "r");
+  if (acc_ == nullptr || gyro_ == nullptr) {
+    error_ = dir + ": cannot open xsens_acc.mat and xsens_gyro.mat";
+    return false;
+  }
+  return true;
+}
+
+bool XsensStream::next(double& t, Vector3<float>& acc, Vector3<float>& gyro) {
+  double ta = 0, tg = 0, a[3] = {}, g[3] = {};
+  const int na = std::fscanf(acc_, "%lf %lf %lf %lf", &ta, &a[0], &a[1], &a[2]);
+  const int ng = std::fscanf(gyro_, "%lf %lf %lf %lf", &tg, &g[0], &g[1], &g[2]);
+  if (na == EOF && ng == EOF) return false;
+  ++line_;
+  if (na != 4 || ng != 4 || ta != tg) {
+    error_ = "line " + std::to_string(line_) + ": malformed or mismatched timestamps";
+    return false;
+  }
+  t = ta;
+  acc = Vector3<double>(a[0], a[1], a[2]).cast<float>();
+  gyro = Vector3<double>(g[0], g[1], g[2]).cast<float>();
+  return true;
+}
+
 std::vector<Interval> detect_still(const std::vector<Sample>& acc, double init_seconds, double k,
                                    int half_window, std::size_t trim, std::size_t min_samples) {
   auto variance_norm = [&](std::size_t b, std::size_t e) {

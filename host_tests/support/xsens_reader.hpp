@@ -3,6 +3,7 @@
 // the initial rest). A stand-in until the streaming detector exists; not library code.
 #pragma once
 
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,27 @@ std::string find_xsens_dir();
 
 // False (with a message) on a missing file or a malformed line.
 bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& error);
+
+// Reads xsens_acc.mat and xsens_gyro.mat side by side, one sample per call, storing nothing:
+// the streaming tests run in the small RAM of the Arm targets too.
+class XsensStream {
+ public:
+  XsensStream() = default;
+  XsensStream(const XsensStream&) = delete;
+  XsensStream& operator=(const XsensStream&) = delete;
+  ~XsensStream();
+  bool open(const std::string& dir);
+  // False at the end of the files, or on a malformed line or mismatched timestamps (error()).
+  bool next(double& t, Vector3<float>& acc, Vector3<float>& gyro);
+  const std::string& error() const { return error_; }
+  std::size_t line() const { return line_; }
+
+ private:
+  std::FILE* acc_ = nullptr;
+  std::FILE* gyro_ = nullptr;
+  std::size_t line_ = 0;
+  std::string error_;
+};
 
 // Still intervals: window of +-half_window samples, threshold k times the variance norm over the
 // first init_seconds, `trim` samples cut from both ends, runs then shorter than min_samples

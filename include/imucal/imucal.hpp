@@ -3,10 +3,10 @@
 #pragma once
 
 #include "imucal/accel_calibration.hpp"
+#include "imucal/accel_model.hpp"
 #include "imucal/calibrator.hpp"
 #include "imucal/gyro_calibration.hpp"
 #include "imucal/gyro_model.hpp"
-#include "imucal/accel_model.hpp"
 #include "imucal/gyro_segment.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "imucal/normal_equations.hpp"
