@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "imucal/calibrator.hpp"
@@ -118,6 +119,242 @@ TEST(Calibrator, FullMotionWithin3SigmaFloat) {
 }
 TEST(Calibrator, FullMotionRefinedBiasFloat) {
   for (std::uint64_t seed : {4u, 5u}) full_motion<float>(true, seed);
+}
+
+// ---- The stream's bad cases: each with its status, nothing collected lost -----------------
+
+struct SimRun {
+  sim::Recording rec;
+  Scenario sc;
+};
+
+SimRun make_run(std::uint64_t seed, int poses = 24) {
+  SimRun r;
+  r.sc.plan.initial_rest_s = 20.0;
+  r.sc.plan.poses = poses;
+  sim::Random rng(seed);
+  r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
+  return r;
+}
+
+// Index of the first sample at or after time t.
+std::size_t at_time(const sim::Recording& rec, double t) {
+  std::size_t i = 0;
+  while (i < rec.samples.size() && rec.samples[i].t < t) ++i;
+  return i;
+}
+
+// Middle of the k-th move (between rests k and k+1).
+double move_middle(const sim::Recording& rec, std::size_t k) {
+  return 0.5 * (rec.samples[rec.rests[k].end - 1].t + rec.samples[rec.rests[k + 1].begin].t);
+}
+
+double rest_middle(const sim::Recording& rec, std::size_t k) {
+  return 0.5 * (rec.samples[rec.rests[k].begin].t + rec.samples[rec.rests[k].end - 1].t);
+}
+
+template <class Cal>
+std::vector<Status> stream_all(Cal& cal, const std::vector<sim::MotionSample>& samples) {
+  std::vector<Status> out;
+  for (const auto& m : samples) out.push_back(cal.add(to_sample<float>(m)));
+  return out;
+}
+
+int count(const std::vector<Status>& v, Status s) {
+  int n = 0;
+  for (Status x : v) n += x == s ? 1 : 0;
+  return n;
+}
+
+TEST(CalibratorStream, BumpDuringARestGivesTwoPosesAndAShortMove) {
+  SimRun r;
+  r.sc.plan.initial_rest_s = 20.0;
+  r.sc.plan.poses = 24;
+  r.sc.plan.bump_rest = 6;
+  r.sc.plan.rest_min_s = 4.0;
+  sim::Random rng(21);
+  r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
+  ASSERT_EQ(r.rec.rests.size(), 26u);  // the bump splits rest 6 in two still parts
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  const auto st = stream_all(cal, r.rec.samples);
+  EXPECT_EQ(count(st, Status::kOk), static_cast<int>(st.size()));
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.poses, 26);
+  EXPECT_EQ(p.moves, 25);  // the bump is a move of its own: a short, small residual
+  expect_within_3_sigma(cal.calibration(), r.rec);
+}
+
+// Rests shorter than min_rest_seconds are not poses: their samples join the move around them,
+// which stays one valid move (the chain of residuals is unbroken).
+TEST(CalibratorStream, RestsTooShortJoinTheMove) {
+  SimRun r = make_run(22, 30);
+  CalibratorSettings<float> s = settings_for<float>(r.sc, false);
+  s.min_rest_seconds = 4.0f;  // rests last 3-6 s: about half are too short once trimmed
+  Calibrator<float> cal(s);
+  stream_all(cal, r.rec.samples);
+  ASSERT_TRUE(succeeded(cal.solve_all()))
+      << to_string(cal.calibration().accel.status) << " / "
+      << to_string(cal.calibration().gyro.status) << " poses " << cal.progress().poses << " short "
+      << cal.progress().rests_too_short;
+  const Progress p = cal.progress();
+  EXPECT_GT(p.rests_too_short, 5);
+  EXPECT_EQ(p.poses + p.rests_too_short, static_cast<int>(r.rec.rests.size()));
+  EXPECT_EQ(p.moves, p.poses - 1);
+  EXPECT_LE(p.moves_dropped, 1);  // the recording's last rest is too short too: ends in a move
+  expect_within_3_sigma(cal.calibration(), r.rec);
+}
+
+TEST(CalibratorStream, RecordingEndingInMotionDropsOnlyTheLastMove) {
+  SimRun r = make_run(23);
+  std::vector<sim::MotionSample> cut(
+      r.rec.samples.begin(),
+      r.rec.samples.begin() + static_cast<long>(at_time(r.rec, move_middle(r.rec, 23))));
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  stream_all(cal, cut);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.last_event, Status::kEndedInMotion);
+  EXPECT_EQ(p.poses, 24);  // rests 0..23
+  EXPECT_EQ(p.moves, 23);
+  EXPECT_EQ(p.moves_dropped, 1);
+  expect_within_3_sigma(cal.calibration(), r.rec);
+}
+
+TEST(CalibratorStream, TooFewPosesRefusesToSolveAndKeepsCollecting) {
+  SimRun r = make_run(24, 14);
+  // The first part: the initial rest and 7 more, cut in the middle of the next move.
+  const std::size_t cut = at_time(r.rec, move_middle(r.rec, 7));
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  for (std::size_t i = 0; i < cut; ++i) cal.add(to_sample<float>(r.rec.samples[i]));
+  EXPECT_EQ(cal.solve(), Status::kTooFewPoses);
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.phase, Phase::kCollecting);
+  EXPECT_EQ(p.poses, 8);
+  EXPECT_NE(p.hint, Hint::kSolve);
+  // More turning makes it solvable: the stream simply continues, nothing was lost.
+  for (std::size_t i = cut; i < r.rec.samples.size(); ++i)
+    EXPECT_EQ(cal.add(to_sample<float>(r.rec.samples[i])), Status::kOk);
+  EXPECT_TRUE(succeeded(cal.solve_all()));
+  EXPECT_EQ(cal.progress().poses, 15);
+  EXPECT_EQ(cal.progress().moves, 14);
+}
+
+TEST(CalibratorStream, GapDuringAMoveDropsThatMoveOnly) {
+  SimRun r = make_run(26);
+  const std::size_t cut = at_time(r.rec, move_middle(r.rec, 10));
+  std::vector<sim::MotionSample> v = r.rec.samples;
+  v.erase(v.begin() + static_cast<long>(cut), v.begin() + static_cast<long>(cut + 50));  // 0.5 s
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  const auto st = stream_all(cal, v);
+  EXPECT_EQ(count(st, Status::kTimestampGap), 1);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.poses, 25);
+  EXPECT_EQ(p.moves, 23);
+  EXPECT_EQ(p.moves_dropped, 1);
+  expect_within_3_sigma(cal.calibration(), r.rec);
+}
+
+TEST(CalibratorStream, FrozenSensorIsRefusedAndTheRestInProgressDiscarded) {
+  SimRun r = make_run(27);
+  std::vector<sim::MotionSample> v = r.rec.samples;
+  // Rest 12 freezes for its middle second: identical readings, time advancing.
+  const std::size_t from = at_time(r.rec, rest_middle(r.rec, 12) - 0.5);
+  for (std::size_t i = from + 1; i < from + 100; ++i) {
+    v[i].acc = v[from].acc;
+    v[i].gyro = v[from].gyro;
+  }
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  const auto st = stream_all(cal, v);
+  EXPECT_GT(count(st, Status::kSensorFrozen), 40);
+  EXPECT_EQ(count(st, Status::kSensorFrozen) + count(st, Status::kOk), static_cast<int>(v.size()));
+  EXPECT_EQ(cal.progress().last_event, Status::kSensorFrozen);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const Progress p = cal.progress();
+  // The rest's part before the freeze is lost, the part after it is a pose that starts a new
+  // chain: the move into rest 12 is dropped.
+  EXPECT_EQ(p.poses, 25);
+  EXPECT_EQ(p.moves, 23);
+  EXPECT_EQ(p.moves_dropped, 1);
+  expect_within_3_sigma(cal.calibration(), r.rec);
+}
+
+TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
+  SimRun r = make_run(28);
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  Calibrator<float> clean(settings_for<float>(r.sc, false));
+  const std::size_t half = r.rec.samples.size() / 2;
+  for (std::size_t i = 0; i < r.rec.samples.size(); ++i) {
+    const ImuSample<float> s = to_sample<float>(r.rec.samples[i]);
+    clean.add(s);
+    ASSERT_EQ(cal.add(s), Status::kOk) << i;
+    if (i == half) {
+      ImuSample<float> nan = s;
+      nan.gyro(1) = std::numeric_limits<float>::quiet_NaN();
+      nan.t_us += 1000;
+      EXPECT_EQ(cal.add(nan), Status::kNonFiniteInput);
+      ImuSample<float> back = s;
+      back.t_us -= 5000;  // time going backwards
+      EXPECT_EQ(cal.add(back), Status::kTimeNotIncreasing);
+      EXPECT_EQ(cal.add(s), Status::kTimeNotIncreasing);  // a repeated timestamp too
+    }
+  }
+  EXPECT_EQ(cal.progress().samples_refused, 3u);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  ASSERT_TRUE(succeeded(clean.solve_all()));
+  // Identical to the clean stream: the refused samples changed nothing.
+  EXPECT_EQ(cal.calibration().accel.params, clean.calibration().accel.params);
+  EXPECT_EQ(cal.calibration().gyro.params, clean.calibration().gyro.params);
+  // After the solve the calibrator takes no more samples until reset().
+  EXPECT_EQ(cal.add(to_sample<float>(r.rec.samples.back())), Status::kBusy);
+}
+
+TEST(CalibratorStream, MotionDuringTheInitialRestRestartsIt) {
+  SimRun r;
+  r.sc.plan.initial_rest_s = 4.0;  // the user starts turning after 4 s of the 10 required
+  sim::Random rng(29);
+  r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  int disturbed = 0;
+  for (std::size_t i = 0; i < at_time(r.rec, 12.0); ++i)
+    disturbed += cal.add(to_sample<float>(r.rec.samples[i])) == Status::kInitialRestDisturbed;
+  EXPECT_EQ(disturbed, 1);
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.phase, Phase::kInitialRest);
+  EXPECT_EQ(p.hint, Hint::kHoldStill);
+  EXPECT_EQ(p.last_event, Status::kInitialRestDisturbed);
+  EXPECT_LT(p.initial_rest_done, 0.5f);
+}
+
+// Progress while collecting: the faces fill in, the hint points at a missing one, and the
+// solve proceeds in bounded slices.
+TEST(CalibratorStream, ProgressAndSlicedSolve) {
+  SimRun r = make_run(30);
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  EXPECT_EQ(cal.progress().hint, Hint::kHoldStill);
+  const std::size_t third = at_time(r.rec, r.rec.samples[r.rec.rests[3].begin].t + 2.0);
+  for (std::size_t i = 0; i < third; ++i) cal.add(to_sample<float>(r.rec.samples[i]));
+  Progress p = cal.progress();
+  EXPECT_EQ(p.phase, Phase::kCollecting);
+  EXPECT_EQ(p.poses, 3);
+  EXPECT_LT(p.faces_covered, 6);
+  EXPECT_EQ(p.hint, Hint::kTurnToFace);
+  EXPECT_FALSE((p.faces >> p.next_face) & 1);
+  for (std::size_t i = third; i < r.rec.samples.size(); ++i)
+    cal.add(to_sample<float>(r.rec.samples[i]));
+  EXPECT_EQ(cal.progress().phase, Phase::kReady);
+  ASSERT_EQ(cal.solve(), Status::kRunning);
+  EXPECT_EQ(cal.progress().phase, Phase::kSolving);
+  int slices = 1;
+  Status s;
+  while ((s = cal.solve_step()) == Status::kRunning) ++slices;
+  EXPECT_TRUE(succeeded(s));
+  // At least one slice per accelerometer iteration and per 96 segments of each gyro pass.
+  const int per_pass = cal.segment_count() / 96;
+  EXPECT_GE(slices, cal.calibration().accel.iterations +
+                        per_pass * (cal.calibration().gyro.iterations + 1));
+  EXPECT_EQ(cal.progress().phase, Phase::kDone);
 }
 
 }  // namespace

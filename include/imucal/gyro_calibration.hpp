@@ -240,7 +240,16 @@ struct GyroSettings {
   // Largest accepted sigma: misalignment in rad, scale relative, bias in rad/s. Larger means
   // the moves do not determine that parameter (kUnobservable).
   Scalar max_normalised_sigma = Scalar(0.02);
-  LmSettings<Scalar> lm{};
+  LmSettings<Scalar> lm = default_lm();
+
+  // In float the cost of a long move goes through hundreds of rotations: its rounding noise is
+  // ~1e-6 of the cost, so a decrease below 1e-5 cannot be told from noise (and damping would
+  // otherwise climb to its maximum, kNoProgress, at the minimum).
+  static LmSettings<Scalar> default_lm() {
+    LmSettings<Scalar> s;
+    if (sizeof(Scalar) < 8) s.cost_tolerance = Scalar(1e-5);
+    return s;
+  }
 };
 
 template <typename Scalar>
