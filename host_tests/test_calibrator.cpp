@@ -15,6 +15,16 @@
 namespace imucal {
 namespace {
 
+// The Arm boards have 2-4 MB of RAM and the simulated recording is kept whole (88 bytes a
+// sample): fewer poses there, the same tests.
+#ifdef IMUCAL_SMALL_TARGET
+constexpr int kPoses = 14;
+constexpr double kInitialRest = 12.0;
+#else
+constexpr int kPoses = 24;
+constexpr double kInitialRest = 20.0;
+#endif
+
 template <typename Scalar>
 ImuSample<Scalar> to_sample(const sim::MotionSample& m) {
   ImuSample<Scalar> s;
@@ -36,6 +46,7 @@ CalibratorSettings<Scalar> settings_for(const Scenario& sc, bool refine_bias) {
   s.accel.gravity = static_cast<Scalar>(sc.plan.gravity);
   s.gyro.nominal_scale = static_cast<Scalar>(sc.gyro.nominal_scale);
   s.gyro.refine_bias = refine_bias;
+  s.target_poses = kPoses;  // "ready" once the plan's poses are in (the default asks 24)
   return s;
 }
 
@@ -48,31 +59,38 @@ int stream(Cal& cal, const std::vector<sim::MotionSample>& samples) {
   return not_ok;
 }
 
-// Errors over sigma for the 9 accelerometer and 9 (or 12) gyro parameters.
+// Errors over sigma for the 9 accelerometer and 9 (or 12) gyro parameters: all within 3 sigma,
+// except that one of the 18-21 may lie in (3, 4] sigma. A correct estimator puts all 21
+// within 3 sigma only 94 % of the time (0.9973^21), so a strict rule over the ~15 recordings
+// of this file would fail one run in two for no fault; beyond 4 sigma (P = 6e-5) it is a fault.
 template <typename Scalar>
 void expect_within_3_sigma(const Calibration<Scalar>& c, const sim::Recording& rec,
                            double* worst = nullptr) {
   double w = 0.0;
-  for (int k = 0; k < kAccelParams; ++k) {
-    const double z = (static_cast<double>(c.accel.params(k)) - rec.acc.params(k)) /
-                     static_cast<double>(c.accel.sigma(k));
-    EXPECT_LT(std::abs(z), 3.0) << "accel parameter " << k;
+  int over_3 = 0;
+  auto check = [&](double estimate, double truth, double sigma, const char* what, int k) {
+    const double z = (estimate - truth) / sigma;
+    EXPECT_LT(std::abs(z), 4.0) << what << " parameter " << k;
+    over_3 += std::abs(z) > 3.0 ? 1 : 0;
     w = std::max(w, std::abs(z));
-  }
+  };
+  for (int k = 0; k < kAccelParams; ++k)
+    check(static_cast<double>(c.accel.params(k)), rec.acc.params(k),
+          static_cast<double>(c.accel.sigma(k)), "accel", k);
   const int n = c.gyro.bias_refined ? kGyroParams : kGyroMatrixParams;
-  for (int k = 0; k < n; ++k) {
-    const double z = (static_cast<double>(c.gyro.params(k)) - rec.gyro.params(k)) /
-                     static_cast<double>(c.gyro.sigma(k));
-    EXPECT_LT(std::abs(z), 3.0) << "gyro parameter " << k;
-    w = std::max(w, std::abs(z));
-  }
+  for (int k = 0; k < n; ++k)
+    check(static_cast<double>(c.gyro.params(k)), rec.gyro.params(k),
+          static_cast<double>(c.gyro.sigma(k)), "gyro", k);
+  EXPECT_LE(over_3, 1) << "parameters beyond 3 sigma";
   if (worst != nullptr) *worst = w;
 }
 
 template <typename Scalar>
 void full_motion(bool refine_bias, std::uint64_t seed) {
   Scenario sc;
-  sc.plan.initial_rest_s = 30.0;
+  sc.plan.initial_rest_s = 1.5 * kInitialRest;
+  sc.plan.poses = kPoses + 6;
+  sc.plan.record_attitude = false;
   sim::Random rng(seed);
   const sim::Recording rec = sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng);
   Calibrator<Scalar> cal(settings_for<Scalar>(sc, refine_bias));
@@ -128,9 +146,10 @@ struct SimRun {
   Scenario sc;
 };
 
-SimRun make_run(std::uint64_t seed, int poses = 24) {
+SimRun make_run(std::uint64_t seed, int poses = kPoses) {
   SimRun r;
-  r.sc.plan.initial_rest_s = 20.0;
+  r.sc.plan.record_attitude = false;
+  r.sc.plan.initial_rest_s = kInitialRest;
   r.sc.plan.poses = poses;
   sim::Random rng(seed);
   r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
@@ -149,10 +168,6 @@ double move_middle(const sim::Recording& rec, std::size_t k) {
   return 0.5 * (rec.samples[rec.rests[k].end - 1].t + rec.samples[rec.rests[k + 1].begin].t);
 }
 
-double rest_middle(const sim::Recording& rec, std::size_t k) {
-  return 0.5 * (rec.samples[rec.rests[k].begin].t + rec.samples[rec.rests[k].end - 1].t);
-}
-
 template <class Cal>
 std::vector<Status> stream_all(Cal& cal, const std::vector<sim::MotionSample>& samples) {
   std::vector<Status> out;
@@ -168,27 +183,28 @@ int count(const std::vector<Status>& v, Status s) {
 
 TEST(CalibratorStream, BumpDuringARestGivesTwoPosesAndAShortMove) {
   SimRun r;
-  r.sc.plan.initial_rest_s = 20.0;
-  r.sc.plan.poses = 24;
+  r.sc.plan.record_attitude = false;
+  r.sc.plan.initial_rest_s = kInitialRest;
+  r.sc.plan.poses = kPoses;
   r.sc.plan.bump_rest = 6;
   r.sc.plan.rest_min_s = 4.0;
   sim::Random rng(21);
   r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
-  ASSERT_EQ(r.rec.rests.size(), 26u);  // the bump splits rest 6 in two still parts
+  ASSERT_EQ(r.rec.rests.size(), kPoses + 2u);  // the bump splits rest 6 in two still parts
   Calibrator<float> cal(settings_for<float>(r.sc, false));
   const auto st = stream_all(cal, r.rec.samples);
   EXPECT_EQ(count(st, Status::kOk), static_cast<int>(st.size()));
   ASSERT_TRUE(succeeded(cal.solve_all()));
   const Progress p = cal.progress();
-  EXPECT_EQ(p.poses, 26);
-  EXPECT_EQ(p.moves, 25);  // the bump is a move of its own: a short, small residual
+  EXPECT_EQ(p.poses, kPoses + 2);
+  EXPECT_EQ(p.moves, kPoses + 1);  // the bump is a move of its own: a short, small residual
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
 
 // Rests shorter than min_rest_seconds are not poses: their samples join the move around them,
 // which stays one valid move (the chain of residuals is unbroken).
 TEST(CalibratorStream, RestsTooShortJoinTheMove) {
-  SimRun r = make_run(22, 30);
+  SimRun r = make_run(22, kPoses + 8);
   CalibratorSettings<float> s = settings_for<float>(r.sc, false);
   s.min_rest_seconds = 4.0f;  // rests last 3-6 s: about half are too short once trimmed
   Calibrator<float> cal(s);
@@ -205,18 +221,18 @@ TEST(CalibratorStream, RestsTooShortJoinTheMove) {
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
 
+// (The recordings are edited in place, not copied: the M33 board has 2 MB.)
 TEST(CalibratorStream, RecordingEndingInMotionDropsOnlyTheLastMove) {
   SimRun r = make_run(23);
-  std::vector<sim::MotionSample> cut(
-      r.rec.samples.begin(),
-      r.rec.samples.begin() + static_cast<long>(at_time(r.rec, move_middle(r.rec, 23))));
+  r.rec.samples.resize(at_time(r.rec, move_middle(r.rec, kPoses - 1)));
+  const std::vector<sim::MotionSample>& cut = r.rec.samples;
   Calibrator<float> cal(settings_for<float>(r.sc, false));
   stream_all(cal, cut);
   ASSERT_TRUE(succeeded(cal.solve_all()));
   const Progress p = cal.progress();
   EXPECT_EQ(p.last_event, Status::kEndedInMotion);
-  EXPECT_EQ(p.poses, 24);  // rests 0..23
-  EXPECT_EQ(p.moves, 23);
+  EXPECT_EQ(p.poses, kPoses);  // rests 0 .. kPoses - 1
+  EXPECT_EQ(p.moves, kPoses - 1);
   EXPECT_EQ(p.moves_dropped, 1);
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
@@ -242,40 +258,49 @@ TEST(CalibratorStream, TooFewPosesRefusesToSolveAndKeepsCollecting) {
 
 TEST(CalibratorStream, GapDuringAMoveDropsThatMoveOnly) {
   SimRun r = make_run(26);
-  const std::size_t cut = at_time(r.rec, move_middle(r.rec, 10));
-  std::vector<sim::MotionSample> v = r.rec.samples;
+  const std::size_t cut = at_time(r.rec, move_middle(r.rec, 6));
+  std::vector<sim::MotionSample>& v = r.rec.samples;
   v.erase(v.begin() + static_cast<long>(cut), v.begin() + static_cast<long>(cut + 50));  // 0.5 s
   Calibrator<float> cal(settings_for<float>(r.sc, false));
   const auto st = stream_all(cal, v);
   EXPECT_EQ(count(st, Status::kTimestampGap), 1);
   ASSERT_TRUE(succeeded(cal.solve_all()));
   const Progress p = cal.progress();
-  EXPECT_EQ(p.poses, 25);
-  EXPECT_EQ(p.moves, 23);
+  EXPECT_EQ(p.poses, kPoses + 1);
+  EXPECT_EQ(p.moves, kPoses - 1);
   EXPECT_EQ(p.moves_dropped, 1);
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
 
 TEST(CalibratorStream, FrozenSensorIsRefusedAndTheRestInProgressDiscarded) {
   SimRun r = make_run(27);
-  std::vector<sim::MotionSample> v = r.rec.samples;
-  // Rest 12 freezes for its middle second: identical readings, time advancing.
-  const std::size_t from = at_time(r.rec, rest_middle(r.rec, 12) - 0.5);
+  std::vector<sim::MotionSample>& v = r.rec.samples;
+  // Rest 8 freezes for a second, half a second after it began: identical readings, time
+  // advancing.
+  const std::size_t from = r.rec.rests[8].begin + 50;
   for (std::size_t i = from + 1; i < from + 100; ++i) {
     v[i].acc = v[from].acc;
     v[i].gyro = v[from].gyro;
   }
   Calibrator<float> cal(settings_for<float>(r.sc, false));
-  const auto st = stream_all(cal, v);
-  EXPECT_GT(count(st, Status::kSensorFrozen), 40);
-  EXPECT_EQ(count(st, Status::kSensorFrozen) + count(st, Status::kOk), static_cast<int>(v.size()));
-  EXPECT_EQ(cal.progress().last_event, Status::kSensorFrozen);
+  int frozen = 0, ok = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const Status st = cal.add(to_sample<float>(v[i]));
+    frozen += st == Status::kSensorFrozen;
+    ok += st == Status::kOk;
+    if (i == from + 99) {
+      EXPECT_EQ(cal.progress().last_event, Status::kSensorFrozen);
+      EXPECT_EQ(cal.progress().hint, Hint::kCheckSensor);
+    }
+  }
+  EXPECT_GT(frozen, 40);  // from frozen_seconds (0.5 s) on
+  EXPECT_EQ(frozen + ok, static_cast<int>(v.size()));
   ASSERT_TRUE(succeeded(cal.solve_all()));
   const Progress p = cal.progress();
   // The rest's part before the freeze is lost, the part after it is a pose that starts a new
-  // chain: the move into rest 12 is dropped.
-  EXPECT_EQ(p.poses, 25);
-  EXPECT_EQ(p.moves, 23);
+  // chain: the move into rest 8 is dropped.
+  EXPECT_EQ(p.poses, kPoses + 1);
+  EXPECT_EQ(p.moves, kPoses - 1);
   EXPECT_EQ(p.moves_dropped, 1);
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
@@ -313,6 +338,8 @@ TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
 TEST(CalibratorStream, MotionDuringTheInitialRestRestartsIt) {
   SimRun r;
   r.sc.plan.initial_rest_s = 4.0;  // the user starts turning after 4 s of the 10 required
+  r.sc.plan.poses = 4;
+  r.sc.plan.record_attitude = false;
   sim::Random rng(29);
   r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
   Calibrator<float> cal(settings_for<float>(r.sc, false));

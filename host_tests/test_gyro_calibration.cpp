@@ -72,7 +72,8 @@ MoveSet<Scalar> make_moves(const GyroVector<double>& truth, const Vector3<double
       const double tau = (i + 0.5) / n;
       const double dt = 0.01 * rng.uniform(0.95, 1.05);
       const Vector3<double> axis = (a0 + 0.5 * std::sin(6.0 * tau) * a1).normalized();
-      const double speed = 2.0 * angle * std::pow(std::sin(M_PI * tau), 2) / (n * 0.01);
+      const double speed =
+          2.0 * angle * std::pow(std::sin(3.141592653589793 * tau), 2) / (n * 0.01);
       const Vector3<double> w = speed * axis;
       r = r * rotation_exp(Vector3<double>(w * dt));
       const Vector3<double> u =

@@ -111,6 +111,8 @@ struct MotionPlan {
   int bump_rest = -1;       // 0-based rest after the initial one, split mid-way by a bump; -1 none
   double bump_angle = 0.1;  // rad, net rotation left by the bump
   double bump_s = 0.3;      // s, duration of the bump
+  // Keep the true attitude of every sample (72 bytes each): off for the small Arm boards.
+  bool record_attitude = true;
 };
 
 struct MotionSample {
@@ -428,7 +430,7 @@ class MotionBuilder {
     s.acc = raw_from_calibrated(rec_.acc, f) + noise(acc_spec_.noise);
     s.gyro = raw_gyro_from_rate(rec_.gyro, w) + noise(gyro_spec_.noise);
     rec_.samples.push_back(s);
-    rec_.attitude.push_back(r_);
+    if (plan_.record_attitude) rec_.attitude.push_back(r_);
   }
 
   Vector3<double> noise(double sd) {
@@ -465,12 +467,15 @@ inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& 
   rec.acc = draw_accel_truth(acc_spec, rng, plan.gravity);
   rec.gyro = draw_gyro_truth(gyro_spec, rng);
   const double poses = static_cast<double>(std::max(plan.poses, 0));
-  const double seconds = plan.initial_rest_s + poses * (plan.rest_max_s + plan.move_max_s) +
-                         std::max(plan.bump_s, 0.0);
-  const double estimate = 1.1 * seconds * plan.rate_hz + 16.0;
+  // The expected length plus a margin (a vector that grows doubles: too much for a 2 MB board).
+  const double seconds =
+      plan.initial_rest_s +
+      poses * 0.5 * (plan.rest_min_s + plan.rest_max_s + plan.move_min_s + plan.move_max_s) +
+      std::max(plan.bump_s, 0.0);
+  const double estimate = 1.25 * seconds * plan.rate_hz + 64.0;
   if (estimate > 0.0 && estimate < 1e8) {
     rec.samples.reserve(static_cast<std::size_t>(estimate));
-    rec.attitude.reserve(static_cast<std::size_t>(estimate));
+    if (plan.record_attitude) rec.attitude.reserve(static_cast<std::size_t>(estimate));
   }
 
   // Net move angles stay clear of pi, where the rotation vector (and so the move) is ambiguous.
