@@ -2,8 +2,9 @@
 # Instruction counts of the benchmark regions on one Arm target, as a Markdown table.
 # Usage: bench/run_insn_bench.sh PRESET   (m4f, m7 or m33; the preset must be built)
 # Counts are exact guest instructions from the QEMU TCG plugin in bench/qemu_plugin (QEMU is
-# not cycle-accurate: instructions, not cycles). Each region includes 2 instructions of marker
-# overhead.
+# not cycle-accurate: instructions, not cycles). Regions of the same name are summed: the table
+# gives their number, the mean and the largest. Each region includes 2 instructions of marker
+# overhead (the per-sample means are small enough for that to matter: 2 of ~150).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 preset=${1:-m4f}
@@ -13,15 +14,23 @@ case $preset in
   m33) machine=mps2-an505 ;;
   *) echo "unknown preset $preset" >&2; exit 2 ;;
 esac
-elf=$here/../build/$preset/bench/bench_accel_insn
-out=$("$here/qemu_plugin/qemu_insn_count.sh" "$machine" "$elf")
-mapfile -t names < <(printf '%s\n' "$out" | sed -n 's/^BENCH //p')
-mapfile -t counts < <(printf '%s\n' "$out" | sed -n 's/^insn_count //p')
-if [ "${#names[@]}" -ne "${#counts[@]}" ] || [ "${#names[@]}" -eq 0 ]; then
-  printf '%s\n' "$out" >&2
-  echo "region names and counts do not pair up" >&2
-  exit 1
-fi
-echo "| region ($preset, $machine, -O2) | instructions |"
-echo "| --- | ---: |"
-for i in "${!names[@]}"; do printf '| %s | %s |\n' "${names[$i]}" "${counts[$i]}"; done
+echo "| region ($preset, $machine, -O2) | calls | mean | largest | total |"
+echo "| --- | ---: | ---: | ---: | ---: |"
+for program in bench_accel_insn bench_stream_insn; do
+  elf=$here/../build/$preset/bench/$program
+  out=$("$here/qemu_plugin/qemu_insn_count.sh" "$machine" "$elf")
+  names=$(printf '%s\n' "$out" | sed -n 's/^BENCH //p')
+  counts=$(printf '%s\n' "$out" | sed -n 's/^insn_count //p')
+  if [ "$(printf '%s\n' "$names" | wc -l)" -ne "$(printf '%s\n' "$counts" | wc -l)" ] ||
+     [ -z "$names" ]; then
+    printf '%s\n' "$out" | tail -20 >&2
+    echo "$program: region names and counts do not pair up" >&2
+    exit 1
+  fi
+  paste -d '\t' <(printf '%s\n' "$names") <(printf '%s\n' "$counts") | awk -F '\t' '
+    !($1 in n) { order[++k] = $1 }
+    { n[$1]++; sum[$1] += $2; if ($2 > max[$1]) max[$1] = $2 }
+    END { for (i = 1; i <= k; i++) { r = order[i];
+            printf "| %s | %d | %d | %d | %d |\n", r, n[r], sum[r] / n[r] + 0.5, max[r], sum[r] } }'
+  printf '%s\n' "$out" | sed -n 's/^RESULT /    /p' >&2
+done

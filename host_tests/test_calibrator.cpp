@@ -377,8 +377,8 @@ TEST(CalibratorStream, ProgressAndSlicedSolve) {
   Status s;
   while ((s = cal.solve_step()) == Status::kRunning) ++slices;
   EXPECT_TRUE(succeeded(s));
-  // At least one slice per accelerometer iteration and per 96 segments of each gyro pass.
-  const int per_pass = cal.segment_count() / 96;
+  // At least one slice per accelerometer iteration and per 32 segments of each gyro pass.
+  const int per_pass = cal.segment_count() / 32;
   EXPECT_GE(slices, cal.calibration().accel.iterations +
                         per_pass * (cal.calibration().gyro.iterations + 1));
   EXPECT_EQ(cal.progress().phase, Phase::kDone);

@@ -31,7 +31,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "imucal/accel_calibration.hpp"
 #include "imucal/gyro_calibration.hpp"
@@ -174,6 +176,9 @@ class Calibrator {
         settings_.gyro.nominal_scale > Scalar(0) ? settings_.gyro.nominal_scale : Scalar(1);
     seg_angle_ = settings_.segment_max_angle / scale;
     seg_error_ = settings_.segment_max_error / (scale * scale * scale);
+    seg_error2_ = seg_error_ * seg_error_;
+    block_us_ = static_cast<std::uint32_t>(settings_.block_seconds * Scalar(1e6));
+    trim_us_ = static_cast<std::uint32_t>(settings_.trim_seconds * Scalar(1e6));
     settings_ok_ = check_settings();
   }
 
@@ -184,15 +189,17 @@ class Calibrator {
     if (!settings_ok_) return refuse(Status::kInvalidArgument);
     if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed)
       return refuse(Status::kBusy);
-    if (!all_finite(s.acc) || !all_finite(s.gyro)) return refuse(Status::kNonFiniteInput);
-    Scalar dt = Scalar(0);
+    // One test for all six readings: x - x is 0 for a finite x and NaN otherwise.
+    const Scalar nan_if_any = (s.acc - s.acc).sum() + (s.gyro - s.gyro).sum();
+    if (!(nan_if_any == Scalar(0))) return refuse(Status::kNonFiniteInput);
+    std::int32_t step = 0;
     if (have_prev_) {
-      const auto step = static_cast<std::int32_t>(s.t_us - t_prev_);
+      step = static_cast<std::int32_t>(s.t_us - t_prev_);
       if (step <= 0) return refuse(Status::kTimeNotIncreasing);
-      dt = static_cast<Scalar>(step) * Scalar(1e-6);
     }
+    Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
     // Frozen: either sensor's reading bit-identical to its previous one for frozen_seconds.
-    if (have_prev_ && (s.acc == acc_prev_ || s.gyro == gyro_prev_)) {
+    if (have_prev_ && (same_bits(s.acc, acc_prev_) || same_bits(s.gyro, gyro_prev_))) {
       frozen_time_ += dt;
       t_prev_ = s.t_us;
       if (frozen_time_ >= settings_.frozen_seconds) {
@@ -201,7 +208,7 @@ class Calibrator {
         ++samples_refused_;
         return Status::kSensorFrozen;
       }
-    } else {
+    } else if (frozen_time_ > Scalar(0)) {
       frozen_time_ = Scalar(0);
       if (frozen_) {
         frozen_ = false;
@@ -211,7 +218,7 @@ class Calibrator {
     acc_prev_ = s.acc;
     gyro_prev_ = s.gyro;
     Status result = Status::kOk;
-    if (have_prev_ && dt > gap_limit()) {
+    if (have_prev_ && static_cast<std::uint32_t>(step) > gap_us_) {
       on_gap();
       result = last_event_ = Status::kTimestampGap;
       have_prev_ = false;
@@ -308,6 +315,11 @@ class Calibrator {
     return s;
   }
 
+  // Whether the latest sample taken was classified still (e.g. for a status LED).
+  bool still() const { return last_still_; }
+  // Whether solve_step() is in the gyro run (after the accelerometer's).
+  bool solving_gyro() const { return phase_ == Phase::kSolving && stage_ == SolveStage::kGyro; }
+
   const Calibration<Scalar>& calibration() const { return calibration_; }
   PoseSpan<Scalar> poses() const { return poses_.span(); }
   // Time span of pose i: first and last sample's timestamps.
@@ -335,6 +347,13 @@ class Calibrator {
     std::uint32_t t_begin = 0;
     std::uint32_t t_end = 0;
     bool still = true;
+
+    void clear() {
+      seg = GyroSegment<Scalar>{};
+      acc_sum.setZero();
+      path = Scalar(0);
+      n = 0;
+    }
 
     void append(const Block& later) {
       seg.append(later.seg);
@@ -368,15 +387,28 @@ class Calibrator {
            c.segment_max_error > Scalar(0) && c.gyro.nominal_scale >= Scalar(0);
   }
 
+  // Bit-identical readings (integer compares: cheaper than float ones on a Cortex-M).
+  static bool same_bits(const Vector3<Scalar>& a, const Vector3<Scalar>& b) {
+    using Bits = std::conditional_t<sizeof(Scalar) == 8, std::uint64_t, std::uint32_t>;
+    static_assert(sizeof(Bits) == sizeof(Scalar), "float or double");
+    Bits x[3], y[3];
+    std::memcpy(x, a.data(), sizeof x);
+    std::memcpy(y, b.data(), sizeof y);
+    return x[0] == y[0] && x[1] == y[1] && x[2] == y[2];
+  }
+
+  // The largest step that is not a gap, in microseconds.
+  void update_gap_limit() {
+    Scalar limit = settings_.max_step_seconds;
+    if (phase_ != Phase::kInitialRest && period_ > Scalar(0) &&
+        settings_.gap_factor * period_ < limit)
+      limit = settings_.gap_factor * period_;
+    gap_us_ = static_cast<std::uint32_t>(limit * Scalar(1e6));
+  }
+
   Status refuse(Status s) {
     ++samples_refused_;
     return s;
-  }
-
-  Scalar gap_limit() const {
-    if (phase_ == Phase::kInitialRest || !(period_ > Scalar(0))) return settings_.max_step_seconds;
-    const Scalar relative = settings_.gap_factor * period_;
-    return relative < settings_.max_step_seconds ? relative : settings_.max_step_seconds;
   }
 
   // ---- Initial rest --------------------------------------------------------------------------
@@ -384,6 +416,7 @@ class Calibrator {
   void restart_initial_rest() {
     phase_ = Phase::kInitialRest;
     init_ = InitialRest{};
+    update_gap_limit();
   }
 
   Status initial_rest_sample(const ImuSample<Scalar>& s, Scalar dt) {
@@ -437,6 +470,11 @@ class Calibrator {
     }
     b0_ = -(g_ref_ + gyro_mean);
     e0_ = gv.sum();
+    const Scalar clip = settings_.outlier_sigma * settings_.outlier_sigma;
+    clip_v0_ = clip * v0_;
+    clip_e0_ = clip * e0_;
+    still_var2_ = settings_.accel_k * settings_.accel_k * v0_.squaredNorm();
+    still_energy_ = settings_.gyro_k * e0_;
     period_ = init_.elapsed / (n - Scalar(1));
     // The detector starts from the rest's own statistics.
     ema_mean_ = acc_mean;
@@ -451,35 +489,49 @@ class Calibrator {
     rest_open_ = true;
     block_ = Block{};
     phase_ = Phase::kCollecting;
+    update_gap_limit();
     return Status::kOk;
   }
 
   // ---- Collection ----------------------------------------------------------------------------
 
+  // The per-sample path, written per axis with the thresholds precomputed (bench_stream counts
+  // its instructions): the detector, then the sample folded into the current block.
   void collect_sample(const ImuSample<Scalar>& s, Scalar dt) {
-    const Vector3<Scalar> a = s.acc - a_ref_;
-    const Vector3<Scalar> u = s.gyro + b0_;
-    // Moving averages weighted by the actual step: sample-rate jitter changes nothing.
+    // Moving averages weighted by the actual step: sample-rate jitter changes nothing. Each
+    // sample's contribution is clipped at outlier_sigma: a lone spike (the Xsens has 13-sigma
+    // ones at rest) cannot end a rest, real motion still shows within 2-3 samples.
     const Scalar w = dt / (settings_.detector_seconds + dt);
-    // Each sample's contribution is clipped at outlier_sigma: a lone spike (the Xsens has
-    // 13-sigma ones at rest) cannot end a rest, real motion still shows within 2-3 samples.
-    const Scalar clip = settings_.outlier_sigma * settings_.outlier_sigma;
-    const Vector3<Scalar> d = a - ema_mean_;
-    ema_mean_ += w * d;
-    ema_var_ = (Scalar(1) - w) * (ema_var_ + w * d.cwiseProduct(d).cwiseMin(clip * v0_));
-    const Scalar energy = u.squaredNorm();
-    ema_energy_ += w * ((energy < clip * e0_ ? energy : clip * e0_) - ema_energy_);
-    const Scalar ka = settings_.accel_k, kg = settings_.gyro_k;
-    const bool still =
-        ema_var_.squaredNorm() <= ka * ka * v0_.squaredNorm() && ema_energy_ <= kg * e0_;
-    // Blocks are homogeneous, short, and valid segments: close before a change of state or
-    // a path angle above the segment bound, after the duration or the error bound.
+    const Scalar keep = Scalar(1) - w;
     // The rate over the interval is the mean of its two end samples (trapezoid, as the RK4
     // reference interpolates linearly between samples): holding the newer sample instead
-    // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale.
-    const Vector3<Scalar> u_mid = dt > Scalar(0) ? Vector3<Scalar>(Scalar(0.5) * (u + u_prev_)) : u;
-    u_prev_ = u;
-    const Scalar step_path = u_mid.norm() * dt;
+    // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale. (A
+    // first sample has dt = 0: whatever u_prev_ holds then adds nothing.)
+    Vector3<Scalar> a, u_mid;
+    Scalar var2 = Scalar(0), energy = Scalar(0), path2 = Scalar(0);
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      const Scalar ai = s.acc(i) - a_ref_(i);
+      const Scalar d = ai - ema_mean_(i);
+      ema_mean_(i) += w * d;
+      const Scalar d2 = d * d < clip_v0_(i) ? d * d : clip_v0_(i);
+      const Scalar v = keep * (ema_var_(i) + w * d2);
+      ema_var_(i) = v;
+      var2 += v * v;
+      const Scalar ui = s.gyro(i) + b0_(i);
+      energy += ui * ui;
+      const Scalar mi = Scalar(0.5) * (ui + u_prev_(i));
+      u_prev_(i) = ui;
+      path2 += mi * mi;
+      a(i) = ai;
+      u_mid(i) = mi;
+    }
+    ema_energy_ += w * ((energy < clip_e0_ ? energy : clip_e0_) - ema_energy_);
+    const bool still = var2 <= still_var2_ && ema_energy_ <= still_energy_;
+    last_still_ = still;
+    // Blocks are homogeneous, short, and valid segments: close before a change of state or
+    // a path angle above the segment bound, after the duration or the error bound.
+    const Scalar step_path = std::sqrt(path2) * dt;
     if (block_.n > 0 && (still != block_.still || block_.path + step_path > seg_angle_))
       close_block();
     if (block_.n == 0) {
@@ -491,44 +543,57 @@ class Calibrator {
     block_.path += step_path;
     ++block_.n;
     block_.t_end = s.t_us;
-    if (static_cast<Scalar>(s.t_us - block_.t_begin) * Scalar(1e-6) >= settings_.block_seconds ||
-        block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > seg_error_ * seg_error_)
+    if (s.t_us - block_.t_begin >= block_us_ ||
+        block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > seg_error2_)
       close_block();
   }
 
+  // Routes the current block (by reference into the ring: no copies on the per-sample path).
   void close_block() {
-    const Block b = block_;
-    block_ = Block{};
-    if (b.n == 0) return;
-    if (b.still) {
-      delay_push(b);
+    if (block_.n == 0) return;
+    if (block_.still) {
+      delay_push(block_);
+      block_.clear();
       // A still block is part of the rest once trim_seconds of stillness follow it.
       while (delay_count_ > 0 &&
-             (delay_count_ == DelayBlocks || delay_span_after_oldest() >= settings_.trim_seconds))
-        rest_add(delay_pop());
+             (delay_count_ == DelayBlocks || delay_span_after_oldest() >= trim_us_)) {
+        rest_add(delay_[delay_head_]);
+        delay_drop_oldest();
+      }
       return;
     }
     // Motion: the rest (if any) ends, the trimmed blocks and this one belong to the move.
     end_rest();
-    while (delay_count_ > 0) push_segment(delay_pop());
-    push_segment(b);
+    flush_delay_to_move();
+    push_segment(block_);
+    block_.clear();
   }
 
   void delay_push(const Block& b) {
     delay_[(delay_head_ + delay_count_) % DelayBlocks] = b;
     ++delay_count_;
   }
-  Block delay_pop() {
-    const Block b = delay_[delay_head_];
+  void delay_drop_oldest() {
     delay_head_ = (delay_head_ + 1) % DelayBlocks;
     --delay_count_;
-    return b;
   }
-  Scalar delay_span_after_oldest() const {
-    if (delay_count_ < 2) return Scalar(0);
+  void flush_delay_to_move() {
+    while (delay_count_ > 0) {
+      push_segment(delay_[delay_head_]);
+      delay_drop_oldest();
+    }
+  }
+  void flush_delay_to_rest() {
+    while (delay_count_ > 0) {
+      rest_add(delay_[delay_head_]);
+      delay_drop_oldest();
+    }
+  }
+  std::uint32_t delay_span_after_oldest() const {
+    if (delay_count_ < 2) return 0;
     const Block& oldest = delay_[delay_head_];
     const Block& newest = delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks];
-    return static_cast<Scalar>(newest.t_end - oldest.t_end) * Scalar(1e-6);
+    return newest.t_end - oldest.t_end;
   }
 
   void rest_add(const Block& b) {
@@ -598,7 +663,7 @@ class Calibrator {
     if (last_mergeable_ && seg_count_ > move_first_ && last_path_ + b.path <= seg_angle_) {
       GyroSegment<Scalar> merged = segments_[seg_count_ - 1];
       merged.append(b.seg);
-      if (merged.alpha.squaredNorm() * merged.beta.squaredNorm() <= seg_error_ * seg_error_) {
+      if (merged.alpha.squaredNorm() * merged.beta.squaredNorm() <= seg_error2_) {
         segments_[seg_count_ - 1] = merged;
         last_path_ += b.path;
         return;
@@ -625,6 +690,7 @@ class Calibrator {
       tau *= Scalar(2);
     merge_pass(tau, true);
     seg_error_ *= Scalar(2);
+    seg_error2_ = seg_error_ * seg_error_;
     last_mergeable_ = false;
     ++coarsenings_;
   }
@@ -710,7 +776,7 @@ class Calibrator {
     block_ = Block{};
     if (b.n > 0 && b.still) delay_push(b);
     end_rest();
-    while (delay_count_ > 0) push_segment(delay_pop());
+    flush_delay_to_move();
     if (b.n > 0 && !b.still) push_segment(b);
   }
 
@@ -724,12 +790,12 @@ class Calibrator {
         delay_push(b);
       } else {
         end_rest();
-        while (delay_count_ > 0) push_segment(delay_pop());
+        flush_delay_to_move();
         push_segment(b);
       }
     }
     if (delay_count_ > 0 || rest_open_) {
-      while (delay_count_ > 0) rest_add(delay_pop());
+      flush_delay_to_rest();
       end_rest();
     } else if (chain_from_ >= 0 && seg_count_ > move_first_) {
       last_event_ = Status::kEndedInMotion;
@@ -868,6 +934,10 @@ class Calibrator {
   // Detector.
   Vector3<Scalar> ema_mean_ = Vector3<Scalar>::Zero(), ema_var_ = Vector3<Scalar>::Zero();
   Scalar ema_energy_ = Scalar(0);
+  bool last_still_ = true;
+  // Thresholds, precomputed when the initial rest ends.
+  Vector3<Scalar> clip_v0_ = Vector3<Scalar>::Zero();
+  Scalar clip_e0_ = Scalar(0), still_var2_ = Scalar(0), still_energy_ = Scalar(0);
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();  // previous bias-corrected rate
 
   // Blocks, delay line, the open rest.
@@ -890,8 +960,9 @@ class Calibrator {
   int move_first_ = 0;   // its first segment
   bool last_mergeable_ = false;
   Scalar last_path_ = Scalar(0);
-  Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0);  // raw units
-  Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();    // |alpha| per axis over the moves
+  Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0), seg_error2_ = Scalar(0);  // raw units
+  std::uint32_t block_us_ = 0, trim_us_ = 0, gap_us_ = 0;
+  Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();  // |alpha| per axis over the moves
 
   // Counters.
   int rests_too_short_ = 0, moves_dropped_ = 0, coarsenings_ = 0;

@@ -27,11 +27,19 @@ struct GyroSegment {
   // before they include this sample: the earlier sample stands on the left of each cross product,
   // which matches right-multiplied (body-frame) composition R = R_1 R_2 ... R_n.
   void add(const Vector3<Scalar>& w, Scalar dt) {
-    const Vector3<Scalar> step = w * dt;
-    beta += alpha.cross(step);
-    gamma += alpha * dt - step * duration;
-    alpha += step;
-    duration += dt;
+    // Written per component: this runs once per sample on the device (bench_stream).
+    const Scalar sx = w(0) * dt, sy = w(1) * dt, sz = w(2) * dt;
+    const Scalar ax = alpha(0), ay = alpha(1), az = alpha(2), t = duration;
+    beta(0) += ay * sz - az * sy;
+    beta(1) += az * sx - ax * sz;
+    beta(2) += ax * sy - ay * sx;
+    gamma(0) += ax * dt - sx * t;
+    gamma(1) += ay * dt - sy * t;
+    gamma(2) += az * dt - sz * t;
+    alpha(0) = ax + sx;
+    alpha(1) = ay + sy;
+    alpha(2) = az + sz;
+    duration = t + dt;
   }
 
   // Appends the statistics of the run that directly follows this one: the result is exactly
