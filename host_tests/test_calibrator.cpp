@@ -135,6 +135,29 @@ TEST(Calibrator, FullMotionWithin3SigmaDouble) {
 TEST(Calibrator, FullMotionWithin3SigmaFloat) {
   for (std::uint64_t seed : {1u, 2u, 3u}) full_motion<float>(false, seed);
 }
+// No gyro scale given, raw counts: segments start as if for rad/s (one per sample, 4770 times
+// too fine), the store coarsens until they fit, and the scale is found by the 1-D search.
+TEST(Calibrator, FullMotionWithoutANominalGyroScale) {
+  Scenario sc;
+  sc.plan.initial_rest_s = 1.5 * kInitialRest;
+  sc.plan.poses = kPoses;
+  sc.plan.record_attitude = false;
+  sim::Random rng(7);
+  const sim::Recording rec = sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng);
+  CalibratorSettings<float> settings = settings_for<float>(sc, false);
+  settings.gyro.nominal_scale = 0.0f;
+  Calibrator<float> cal(settings);
+  EXPECT_EQ(stream<float>(cal, rec.samples), 0);
+  ASSERT_TRUE(succeeded(cal.solve_all())) << to_string(cal.calibration().gyro.status);
+  const Progress p = cal.progress();
+  EXPECT_GT(p.coarsenings, 3);
+  EXPECT_EQ(p.moves, p.poses - 1);
+  double worst = 0.0;
+  expect_within_3_sigma(cal.calibration(), rec, &worst);
+  std::printf("no nominal scale: %d segments after %d coarsenings, worst %.2f sigma\n", p.segments,
+              p.coarsenings, worst);
+}
+
 TEST(Calibrator, FullMotionRefinedBiasFloat) {
   for (std::uint64_t seed : {4u, 5u}) full_motion<float>(true, seed);
 }

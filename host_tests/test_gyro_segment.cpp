@@ -5,7 +5,9 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
+#include "imucal/calibrator.hpp"
 #include "imucal/gyro_segment.hpp"
 #include "imucal/sim/random.hpp"
 #include "support/gtest_status.hpp"
@@ -164,6 +166,83 @@ TEST(GyroSegment, TruncationErrorShrinksWithTheSegmentThreshold) {
   EXPECT_LT(medium.truncation_error, coarse.truncation_error / 10.0);
   EXPECT_LT(fine.truncation_error, medium.truncation_error / 2.0);
   EXPECT_LT(medium.truncation_error, 1e-4);
+}
+
+// The calibrator's own segmentation with its default bounds (segment_max_angle, segment_max_error,
+// merging of blocks) on the coning move between two rests, against RK4 on every sample over
+// the same span (from the first pose's last sample to the second pose's first): below 1e-4 rad.
+TEST(GyroSegment, CalibratorDefaultSegmentsMatchRk4OnAConingMove) {
+  sim::Random rng(6);
+  Calibrator<double> cal;  // SI units: M = I, b = 0
+  const Vector3<double> up(0.0, 0.0, 9.81);
+  std::vector<double> times;
+  std::vector<Vector3<double>> rates;
+  double t = 0.0;
+  std::uint32_t t_us = 0;
+  Matrix3<double> attitude = Matrix3<double>::Identity();
+  auto feed = [&](const Vector3<double>& w, bool moving) {
+    ImuSample<double> s;
+    s.t_us = t_us;
+    // Tiny noise: a noise-free sensor would be taken for a frozen one.
+    s.acc = attitude.transpose() * up +
+            1e-3 * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
+    if (moving) s.acc += Vector3<double>(0.5, -0.3, 0.2);
+    s.gyro = w + 1e-7 * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
+    times.push_back(t);
+    rates.push_back(s.gyro);
+    cal.add(s);
+  };
+  auto step = [&]() {
+    const double dt = 0.01 * rng.uniform(0.95, 1.05);
+    t += dt;
+    t_us = static_cast<std::uint32_t>(std::llround(t * 1e6));
+    return dt;
+  };
+  feed(Vector3<double>::Zero(), false);
+  while (t < 12.0) {
+    step();
+    feed(Vector3<double>::Zero(), false);
+  }  // initial rest (10 s)
+  const double move_start = t;
+  while (t < move_start + 3.0) {
+    const double dt = step();
+    const Vector3<double> w = coning_rate(t - move_start) *
+                              std::pow(std::sin(3.141592653589793 * (t - move_start) / 3.0), 2);
+    attitude = attitude * rotation_exp(Vector3<double>(w * dt));
+    feed(w, true);
+  }
+  const double rest_start = t;
+  while (t < rest_start + 4.0) {
+    step();
+    feed(Vector3<double>::Zero(), false);
+  }
+  // A last turn ends the second rest, which makes it a pose and closes the move.
+  const double last = t;
+  while (t < last + 1.0) {
+    step();
+    feed(Vector3<double>(0.0, 1.0, 0.0), true);
+  }
+  ASSERT_EQ(cal.progress().poses, 2);
+  ASSERT_EQ(cal.move_count(), 1);
+  const GyroMove& mv = cal.move(0);
+  Matrix3<double> r = Matrix3<double>::Identity();
+  for (int k = 0; k < mv.segments; ++k)
+    r = r *
+        rotation_exp(cal.segment(mv.first_segment + k)
+                         .rotation_vector(Matrix3<double>::Identity(), Vector3<double>::Zero()));
+  // RK4 over the same span: the pose times are sample times.
+  const double from = cal.pose_end_us(0) * 1e-6, to = cal.pose_begin_us(1) * 1e-6;
+  Eigen::Quaterniond ref = Eigen::Quaterniond::Identity();
+  std::size_t i = 0;
+  while (times[i] < from - 1e-7) ++i;
+  for (; i + 1 < times.size() && times[i + 1] <= to + 1e-7; ++i)
+    ref = rk4_step(ref, rates[i], rates[i + 1], times[i + 1] - times[i]);
+  const double error = Eigen::AngleAxisd(r.transpose() * ref.toRotationMatrix()).angle();
+  const double angle = Eigen::AngleAxisd(ref.toRotationMatrix()).angle();
+  std::printf("calibrator defaults: %d segments over a %.2f rad coning move, error %.2e rad\n",
+              mv.segments, angle, error);
+  EXPECT_GT(angle, 1.0);
+  EXPECT_LT(error, 1e-4);
 }
 
 }  // namespace

@@ -328,6 +328,7 @@ class Calibrator {
   int move_count() const { return move_count_; }
   const GyroMove& move(int i) const { return moves_[i]; }
   int segment_count() const { return seg_count_; }
+  const GyroSegment<Scalar>& segment(int i) const { return segments_[i]; }
   // The initial-rest gyro bias (added, sensor units) and the per-axis noise variances.
   const Vector3<Scalar>& gyro_bias0() const { return b0_; }
   const Vector3<Scalar>& accel_noise_variance() const { return v0_; }
@@ -681,14 +682,16 @@ class Calibrator {
 
   // Frees at least an eighth of the store by merging adjacent segments of the same move (exact
   // algebra), those whose merged error bound is smallest first: the bound tau starts at the
-  // current one and doubles until enough merges qualify. The new-segment bound doubles too,
-  // so that a long protocol settles at a coarser resolution instead of coarsening often.
+  // current one and doubles until enough merges qualify. The new-segment bounds double too, so
+  // that a long protocol (or an unknown gyro scale) settles at a coarser resolution instead of
+  // coarsening often.
   void coarsen() {
     const int wanted = MaxSegments / 8 > 0 ? MaxSegments / 8 : 1;
     Scalar tau = seg_error_;
     for (int attempt = 0; attempt < 40 && merge_pass(tau, false) < wanted; ++attempt)
       tau *= Scalar(2);
     merge_pass(tau, true);
+    seg_angle_ *= Scalar(2);
     seg_error_ *= Scalar(2);
     seg_error2_ = seg_error_ * seg_error_;
     last_mergeable_ = false;
