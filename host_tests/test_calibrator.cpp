@@ -279,6 +279,16 @@ TEST(CalibratorStream, TooFewPosesRefusesToSolveAndKeepsCollecting) {
   EXPECT_EQ(cal.progress().moves, 14);
 }
 
+// After a stream cut once (gap, frozen spell): every pose kept, the chain of moves broken once.
+void expect_one_move_dropped(Calibrator<float>& cal, const sim::Recording& rec) {
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.poses, kPoses + 1);
+  EXPECT_EQ(p.moves, kPoses - 1);
+  EXPECT_EQ(p.moves_dropped, 1);
+  expect_within_3_sigma(cal.calibration(), rec);
+}
+
 TEST(CalibratorStream, GapDuringAMoveDropsThatMoveOnly) {
   SimRun r = make_run(26);
   const std::size_t cut = at_time(r.rec, move_middle(r.rec, 6));
@@ -287,12 +297,7 @@ TEST(CalibratorStream, GapDuringAMoveDropsThatMoveOnly) {
   Calibrator<float> cal(settings_for<float>(r.sc, false));
   const auto st = stream_all(cal, v);
   EXPECT_EQ(count(st, Status::kTimestampGap), 1);
-  ASSERT_TRUE(succeeded(cal.solve_all()));
-  const Progress p = cal.progress();
-  EXPECT_EQ(p.poses, kPoses + 1);
-  EXPECT_EQ(p.moves, kPoses - 1);
-  EXPECT_EQ(p.moves_dropped, 1);
-  expect_within_3_sigma(cal.calibration(), r.rec);
+  expect_one_move_dropped(cal, r.rec);
 }
 
 TEST(CalibratorStream, FrozenSensorIsRefusedAndTheRestInProgressDiscarded) {
@@ -318,14 +323,9 @@ TEST(CalibratorStream, FrozenSensorIsRefusedAndTheRestInProgressDiscarded) {
   }
   EXPECT_GT(frozen, 40);  // from frozen_seconds (0.5 s) on
   EXPECT_EQ(frozen + ok, static_cast<int>(v.size()));
-  ASSERT_TRUE(succeeded(cal.solve_all()));
-  const Progress p = cal.progress();
   // The rest's part before the freeze is lost, the part after it is a pose that starts a new
   // chain: the move into rest 8 is dropped.
-  EXPECT_EQ(p.poses, kPoses + 1);
-  EXPECT_EQ(p.moves, kPoses - 1);
-  EXPECT_EQ(p.moves_dropped, 1);
-  expect_within_3_sigma(cal.calibration(), r.rec);
+  expect_one_move_dropped(cal, r.rec);
 }
 
 TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {

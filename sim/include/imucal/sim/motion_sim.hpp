@@ -23,6 +23,7 @@
 
 #include "imucal/accel_model.hpp"
 #include "imucal/gyro_model.hpp"
+#include "imucal/gyro_segment.hpp"  // rotation_exp: the same matrices as the calibrator's tests
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/random.hpp"
 
@@ -58,24 +59,6 @@ inline Vector3<double> raw_gyro_from_rate(const GyroTruth& t, const Vector3<doub
   const Matrix3<double> m = gyro_matrix<double>(t.params);
   const Vector3<double> b(t.params(kGyroBiasX), t.params(kGyroBiasY), t.params(kGyroBiasZ));
   return m.inverse() * w - b;
-}
-
-// exp([v]x) (Rodrigues), exact for any angle. Written as imucal::rotation_exp is
-// (gyro_segment.hpp), so a test re-integrating the truth with either gets the same matrices; an
-// exactly zero v gives exactly the identity, so rests leave the attitude bit-for-bit unchanged.
-inline Matrix3<double> so3_exp(const Vector3<double>& v) {
-  const double angle = v.norm();
-  if (angle < 1e-12) {
-    Matrix3<double> r = Matrix3<double>::Identity();
-    r(0, 1) = -v(2);
-    r(0, 2) = v(1);
-    r(1, 0) = v(2);
-    r(1, 2) = -v(0);
-    r(2, 0) = -v(1);
-    r(2, 1) = v(0);
-    return r;
-  }
-  return Eigen::AngleAxis<double>(angle, v / angle).toRotationMatrix();
 }
 
 // The rotation vector of r (angle in [0, pi]); Eigen goes through the quaternion, which stays
@@ -251,10 +234,10 @@ inline Matrix3<double> turn_to(const Vector3<double>& up, const Vector3<double>&
   const double delta = angle_between(target, up);
   Vector3<double> n = target.cross(up);
   if (n.norm() < 1e-9) n = up.unitOrthogonal();
-  const Matrix3<double> q_min = so3_exp(n.normalized() * delta);
+  const Matrix3<double> q_min = rotation_exp<double>(n.normalized() * delta);
   const double ratio = std::min(1.0, std::cos(0.5 * theta) / std::cos(0.5 * delta));
   const double psi = 2.0 * std::acos(ratio) * (rng.uniform() < 0.5 ? -1.0 : 1.0);
-  return so3_exp(up * psi) * q_min;
+  return rotation_exp<double>(up * psi) * q_min;
 }
 
 // Builds the sample stream phase by phase; keeps the current time and attitude.
@@ -319,7 +302,7 @@ class MotionBuilder {
     };
     auto integrate = [&]() {
       Matrix3<double> q = Matrix3<double>::Identity();
-      for (std::size_t j = 0; j < n; ++j) q = q * so3_exp(w[j] * dt[j]);
+      for (std::size_t j = 0; j < n; ++j) q = q * rotation_exp<double>(w[j] * dt[j]);
       return q;
     };
 
@@ -417,7 +400,7 @@ class MotionBuilder {
   // Holds w over (t_, t] (dt taken from the stored times, as a consumer will).
   void advance(double t, const Vector3<double>& w) {
     const double dt = t - t_;
-    r_ = r_ * so3_exp(w * dt);
+    r_ = r_ * rotation_exp<double>(w * dt);
     t_ = t;
   }
 
