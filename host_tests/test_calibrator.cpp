@@ -354,8 +354,14 @@ TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
   // Identical to the clean stream: the refused samples changed nothing.
   EXPECT_EQ(cal.calibration().accel.params, clean.calibration().accel.params);
   EXPECT_EQ(cal.calibration().gyro.params, clean.calibration().gyro.params);
-  // After the solve the calibrator takes no more samples until reset().
+  // After the solve the calibrator takes no more samples until reset(), which starts afresh.
   EXPECT_EQ(cal.add(to_sample<float>(r.rec.samples.back())), Status::kBusy);
+  cal.reset(settings_for<float>(r.sc, false));
+  EXPECT_EQ(cal.progress().phase, Phase::kInitialRest);
+  EXPECT_EQ(cal.progress().poses, 0);
+  for (const auto& m : r.rec.samples) cal.add(to_sample<float>(m));
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  EXPECT_EQ(cal.calibration().gyro.params, clean.calibration().gyro.params);
 }
 
 TEST(CalibratorStream, MotionDuringTheInitialRestRestartsIt) {

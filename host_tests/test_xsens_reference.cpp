@@ -85,7 +85,7 @@ bool run_both(bool refine_bias, float segment_max_error, Both& out) {
   settings.gyro.refine_bias = refine_bias;
   settings.segment_max_error = segment_max_error;
   static Cal cal;
-  cal = Cal(settings);
+  cal.reset(settings);
   double t = 0;
   Vector3<float> acc, gyro;
   while (in.next(t, acc, gyro)) {

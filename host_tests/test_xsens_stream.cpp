@@ -98,7 +98,7 @@ void end_to_end(bool refine_bias) {
   const std::string dir = xsens_dir();
   if (dir.empty()) GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)";
   static XsensCalibrator cal;  // ~31 KB: static, not on the small targets' stack
-  cal = XsensCalibrator(xsens_settings(refine_bias));
+  cal.reset(xsens_settings(refine_bias));
   int refused = 0;
   ASSERT_TRUE(stream(dir, cal, refused));
   EXPECT_EQ(refused, 0);

@@ -25,7 +25,7 @@ int main() {
   settings.accel.gravity = 9.81744f;
   settings.accel_zero_hint = Vector3<float>::Constant(32768.0f);
   settings.gyro.nominal_scale = 1.0f / 4770.0f;
-  calibrator = Calibrator<float>(settings);
+  calibrator.reset(settings);
   test::XsensStream in;
   if (!in.open(test::find_xsens_dir())) {
     std::printf("%s\n", in.error().c_str());

@@ -149,6 +149,16 @@ class Calibrator {
     reset();
   }
 
+  // Starts again with new settings, in place (assigning a new Calibrator would build a 32 KB
+  // temporary on the stack).
+  void reset(const CalibratorSettings<Scalar>& settings) {
+    settings_ = settings;
+    accel_solver_ = AccelSolver<Scalar>(settings.accel);
+    gyro9_ = GyroSolver<Scalar, kGyroMatrixParams>(settings.gyro);
+    gyro12_ = GyroSolver<Scalar, kGyroParams>(settings.gyro);
+    reset();
+  }
+
   // Forgets everything collected and starts again with the initial rest.
   void reset() {
     phase_ = Phase::kInitialRest;
