@@ -328,6 +328,31 @@ TEST(CalibratorStream, FrozenSensorIsRefusedAndTheRestInProgressDiscarded) {
   expect_one_move_dropped(cal, r.rec);
 }
 
+// A full pose store keeps what it has, says so once, and is ready to solve; later rests are not
+// stored (the chain of moves cannot skip a pose).
+TEST(CalibratorStream, FullPoseStoreKeepsItsPosesAndIsReady) {
+  SimRun r = make_run(31, 16);
+  Calibrator<float, 12> cal(settings_for<float>(r.sc, false));
+  int full = 0;
+  for (const auto& m : r.rec.samples) {
+    const Status st = cal.add(to_sample<float>(m));
+    full += st == Status::kCapacityExceeded;
+    EXPECT_TRUE(st == Status::kOk || st == Status::kCapacityExceeded);
+  }
+  EXPECT_EQ(full, 1);
+  const Progress p = cal.progress();
+  EXPECT_EQ(p.poses, 12);
+  EXPECT_EQ(p.moves, 11);
+  EXPECT_EQ(p.phase, Phase::kReady);
+  EXPECT_EQ(p.hint, Hint::kSolve);
+  EXPECT_EQ(p.last_event, Status::kCapacityExceeded);
+  ASSERT_TRUE(succeeded(cal.solve_all())) << to_string(cal.calibration().gyro.status);
+  EXPECT_EQ(cal.progress().poses, 12);
+  for (int k = 0; k < 12; ++k)  // the first 12 rests, in order
+    EXPECT_GE(cal.pose_begin_us(k) * 1e-6,
+              r.rec.samples[r.rec.rests[static_cast<std::size_t>(k)].begin].t - 1e-6);
+}
+
 TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
   SimRun r = make_run(28);
   Calibrator<float> cal(settings_for<float>(r.sc, false));

@@ -15,8 +15,9 @@
 //      block that is followed by trim_seconds of stillness joins the current rest; when motion
 //      comes, the blocks still in the line (the rest's last trim_seconds) go to the move. A rest
 //      becomes a pose when motion ends it, if it lasted min_rest_seconds; a shorter one is part
-//      of the move. A noisy sample can therefore end a rest but never splits one pose in two
-//      with the samples in between lost: everything between two poses is integrated.
+//      of the move. A lone outlier cannot end a rest (each sample's weight in the averages is
+//      clipped, outlier_sigma); a real disturbance ends it, and then everything between the two
+//      poses is integrated as a move: nothing is lost in between.
 //   4. Moves: every non-pose block's gyro statistics go to the segment store, merged with the
 //      previous segment while the merged one stays a small, nearly single-axis rotation
 //      (segment_max_angle, segment_max_error). When the store is full, the adjacent segments
