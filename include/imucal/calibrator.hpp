@@ -180,6 +180,10 @@ class Calibrator {
     rests_too_short_ = moves_dropped_ = coarsenings_ = 0;
     samples_refused_ = 0;
     last_rest_short_ = false;
+    pose_store_full_reported_ = false;
+    capacity_reported_ = false;
+    last_still_ = true;
+    u_prev_.setZero();
     rotation_ = Vector3<Scalar>::Zero();
     calibration_ = Calibration<Scalar>{};
     restart_initial_rest();
@@ -306,14 +310,17 @@ class Calibrator {
       if (s == Status::kRunning) return s;
       if (!succeeded(accel_solver_.finish(calibration_.accel))) return fail_accel();
       start_gyro();
-      return Status::kRunning;
+      return phase_ == Phase::kFailed ? calibration_status() : Status::kRunning;
     }
     const Status s = settings_.gyro.refine_bias ? gyro12_.step() : gyro9_.step();
     if (s == Status::kRunning) return s;
-    if (settings_.gyro.refine_bias)
+    if (settings_.gyro.refine_bias) {
       gyro12_.finish(calibration_.gyro);
-    else
+    } else {
       gyro9_.finish(calibration_.gyro);
+      if (succeeded(calibration_.gyro.status))  // the bias is the initial rest's mean rate
+        calibration_.gyro.sigma.template tail<3>() = b0_sigma_;
+    }
     calibration_.quality = quality();
     phase_ = succeeded(calibration_.gyro.status) ? Phase::kDone : Phase::kFailed;
     return calibration_.gyro.status;
@@ -396,7 +403,10 @@ class Calibrator {
            c.trim_seconds <= c.block_seconds * Scalar(DelayBlocks - 1) &&
            c.gap_factor > Scalar(1) && c.max_step_seconds > Scalar(0) &&
            c.frozen_seconds > Scalar(0) && c.segment_max_angle > Scalar(0) &&
-           c.segment_max_error > Scalar(0) && c.gyro.nominal_scale >= Scalar(0);
+           c.segment_max_error > Scalar(0) && c.gyro.nominal_scale >= Scalar(0) &&
+           // Durations become microseconds in uint32: keep them far from 2^32 us (71 min).
+           c.block_seconds <= Scalar(60) && c.trim_seconds <= Scalar(60) &&
+           c.max_step_seconds <= Scalar(60);
   }
 
   // Bit-identical readings (integer compares: cheaper than float ones on a Cortex-M).
@@ -482,6 +492,8 @@ class Calibrator {
     }
     b0_ = -(g_ref_ + gyro_mean);
     e0_ = gv.sum();
+    b0_sigma_ = (gv / n).cwiseSqrt();  // of the mean rate: the bias's sigma when not refined
+    u_prev_.setZero();                 // the rate at the rest's end, bias removed
     const Scalar clip = settings_.outlier_sigma * settings_.outlier_sigma;
     clip_v0_ = clip * v0_;
     clip_e0_ = clip * e0_;
@@ -564,11 +576,15 @@ class Calibrator {
   void close_block() {
     if (block_.n == 0) return;
     if (block_.still) {
-      delay_push(block_);
+      // A full line (blocks cut short by the segment bounds) grows its newest block instead of
+      // letting a block into the rest before trim_seconds of stillness followed it.
+      if (delay_count_ == DelayBlocks)
+        delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks].append(block_);
+      else
+        delay_push(block_);
       block_.clear();
       // A still block is part of the rest once trim_seconds of stillness follow it.
-      while (delay_count_ > 0 &&
-             (delay_count_ == DelayBlocks || delay_span_after_oldest() >= trim_us_)) {
+      while (delay_count_ > 0 && delay_span_after_oldest() >= trim_us_) {
         rest_add(delay_[delay_head_]);
         delay_drop_oldest();
       }
@@ -639,7 +655,7 @@ class Calibrator {
     last_rest_short_ = false;
     if (poses_.full()) {
       // Not stored (see the top of this file); the chain cannot continue past it.
-      if (last_event_ != Status::kCapacityExceeded) pose_store_full_reported_ = true;
+      if (!capacity_reported_) pose_store_full_reported_ = capacity_reported_ = true;
       last_event_ = Status::kCapacityExceeded;
       drop_move();
       return;
@@ -916,7 +932,7 @@ class Calibrator {
       case Phase::kCollecting:
         break;
     }
-    if (frozen_ || last_event_ == Status::kSensorFrozen) return Hint::kCheckSensor;
+    if (frozen_) return Hint::kCheckSensor;
     if (last_rest_short_) return Hint::kHoldLonger;
     if (p.faces_covered < 6) return Hint::kTurnToFace;
     if (p.axes_turned != 0x7) return Hint::kTurnAboutAxis;
@@ -941,6 +957,7 @@ class Calibrator {
   Vector3<Scalar> a_ref_ = Vector3<Scalar>::Zero();  // acceleration sums are relative to this
   Vector3<Scalar> g_ref_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added
+  Vector3<Scalar> b0_sigma_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> v0_ = Vector3<Scalar>::Zero();  // accelerometer variance per axis
   Scalar e0_ = Scalar(0);                         // gyro energy at rest
   Scalar period_ = Scalar(0);                     // mean sample period
@@ -961,7 +978,8 @@ class Calibrator {
   Block rest_{};
   bool rest_open_ = false;
   bool last_rest_short_ = false;
-  bool pose_store_full_reported_ = false;
+  bool pose_store_full_reported_ = false;  // to be returned by the next add()
+  bool capacity_reported_ = false;         // once per run
 
   // Stores.
   PoseStore<Scalar, MaxPoses> poses_{};

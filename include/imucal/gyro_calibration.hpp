@@ -257,7 +257,9 @@ template <typename Scalar>
 struct GyroCalibration {
   // imu_tk layout, then the ADDED bias (absolute, sensor units): w_cal = T K (w_raw + b).
   GyroVector<Scalar> params = GyroVector<Scalar>::Zero();
-  GyroVector<Scalar> sigma = GyroVector<Scalar>::Zero();  // bias sigma from the initial rest
+  // The bias's sigma: from the LM when refined; otherwise the initial rest's (filled in by the
+  // Calibrator; zero from GyroSolver alone, which does not see the rest).
+  GyroVector<Scalar> sigma = GyroVector<Scalar>::Zero();
   Scalar residual_rms = Scalar(0);  // rad: RMS over moves of the sine of the gravity angle error
   int moves = 0;
   int iterations = 0;
