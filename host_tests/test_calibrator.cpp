@@ -357,12 +357,17 @@ TEST(CalibratorStream, FullPoseStoreKeepsItsPosesAndIsReady) {
 // reset() in the middle of a move, then a new recording: the same result as a new calibrator
 // (no rate, flag or event of the old run carries over).
 TEST(CalibratorStream, ResetMidMoveStartsClean) {
-  SimRun a = make_run(32), b = make_run(33);
-  Calibrator<float> cal(settings_for<float>(a.sc, false));
-  const std::size_t cut = at_time(a.rec, move_middle(a.rec, 3));
-  for (std::size_t i = 0; i < cut; ++i) cal.add(to_sample<float>(a.rec.samples[i]));
+  // Static calibrators and one recording at a time: the M33 board has 2 MB and a 64 KB stack.
+  static Calibrator<float> cal, fresh;
+  {
+    SimRun a = make_run(32);
+    cal.reset(settings_for<float>(a.sc, false));
+    const std::size_t cut = at_time(a.rec, move_middle(a.rec, 3));
+    for (std::size_t i = 0; i < cut; ++i) cal.add(to_sample<float>(a.rec.samples[i]));
+  }
+  SimRun b = make_run(33);
   cal.reset(settings_for<float>(b.sc, false));
-  Calibrator<float> fresh(settings_for<float>(b.sc, false));
+  fresh.reset(settings_for<float>(b.sc, false));
   for (const auto& m : b.rec.samples) {
     const ImuSample<float> s = to_sample<float>(m);
     ASSERT_EQ(cal.add(s), fresh.add(s));
@@ -404,8 +409,9 @@ TEST(CalibratorStream, TrimHoldsAt1kHzWithoutAGyroScale) {
 
 TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
   SimRun r = make_run(28);
-  Calibrator<float> cal(settings_for<float>(r.sc, false));
-  Calibrator<float> clean(settings_for<float>(r.sc, false));
+  static Calibrator<float> cal, clean;  // static: two of them would fill the 64 KB stack
+  cal.reset(settings_for<float>(r.sc, false));
+  clean.reset(settings_for<float>(r.sc, false));
   const std::size_t half = r.rec.samples.size() / 2;
   for (std::size_t i = 0; i < r.rec.samples.size(); ++i) {
     const ImuSample<float> s = to_sample<float>(r.rec.samples[i]);
