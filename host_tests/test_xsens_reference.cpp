@@ -12,12 +12,13 @@
 #include "support/gtest_status.hpp"
 #include "support/reference_calibration.hpp"
 #include "support/xsens_reader.hpp"
+#include "support/xsens_settings.hpp"
 
 namespace imucal {
 namespace {
 
-constexpr double kGravity = 9.81744;
-constexpr double kCountsPerRadS = 4770;
+constexpr double kGravity = test::kXsensGravity;
+constexpr double kCountsPerRadS = test::kXsensCountsPerRadS;
 
 struct Both {
   std::vector<test::RawSample> samples;
@@ -77,12 +78,7 @@ bool run_both(bool refine_bias, float segment_max_error, Both& out) {
   if (dir.empty()) return false;
   test::XsensStream in;
   if (!in.open(dir)) return false;
-  CalibratorSettings<float> settings;
-  settings.initial_rest_seconds = 40.0f;
-  settings.accel.gravity = static_cast<float>(kGravity);
-  settings.accel_zero_hint = Vector3<float>::Constant(32768.0f);
-  settings.gyro.nominal_scale = static_cast<float>(1.0 / kCountsPerRadS);
-  settings.gyro.refine_bias = refine_bias;
+  CalibratorSettings<float> settings = test::xsens_calibrator_settings(refine_bias);
   settings.segment_max_error = segment_max_error;
   static Cal cal;
   cal.reset(settings);

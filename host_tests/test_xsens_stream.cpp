@@ -11,12 +11,12 @@
 #include "imucal/calibrator.hpp"
 #include "support/gtest_status.hpp"
 #include "support/xsens_reader.hpp"
+#include "support/xsens_settings.hpp"
 
 namespace imucal {
 namespace {
 
-constexpr double kGravity = 9.81744;     // local gravity given with the recording
-constexpr double kCountsPerRadS = 4770;  // datasheet order of magnitude (README of the data)
+constexpr double kGravity = test::kXsensGravity;
 constexpr double kDeg = 57.29577951308232;
 
 std::string xsens_dir() {
@@ -25,16 +25,6 @@ std::string xsens_dir() {
   if (dir.empty()) ADD_FAILURE() << "xsens recording required but not found";
 #endif
   return dir;
-}
-
-CalibratorSettings<float> xsens_settings(bool refine_bias) {
-  CalibratorSettings<float> s;
-  s.initial_rest_seconds = 40.0f;  // the recording starts with ~50 s of rest
-  s.accel.gravity = static_cast<float>(kGravity);
-  s.accel_zero_hint = Vector3<float>::Constant(32768.0f);  // unsigned 16-bit counts
-  s.gyro.nominal_scale = static_cast<float>(1.0 / kCountsPerRadS);
-  s.gyro.refine_bias = refine_bias;
-  return s;
 }
 
 using XsensCalibrator = Calibrator<float>;
@@ -98,7 +88,7 @@ void end_to_end(bool refine_bias) {
   const std::string dir = xsens_dir();
   if (dir.empty()) GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)";
   static XsensCalibrator cal;  // ~31 KB: static, not on the small targets' stack
-  cal.reset(xsens_settings(refine_bias));
+  cal.reset(test::xsens_calibrator_settings(refine_bias));
   int refused = 0;
   ASSERT_TRUE(stream(dir, cal, refused));
   EXPECT_EQ(refused, 0);

@@ -151,12 +151,9 @@ Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
   const Vector& p = lm_.parameters();
   // Unobservable: a misalignment or a relative scale, or the bias in rad/s, too uncertain.
   const Scalar limit = settings_.max_normalised_sigma;
-  for (int k = 0; k < N; ++k) {
-    Scalar normalised = sd(k);
-    if (k >= kGyroScaleX && k <= kGyroScaleZ) normalised = sd(k) / std::abs(p(k));
-    if (k >= kGyroBiasX) normalised = sd(k) * std::abs(p(kGyroScaleX + (k - kGyroBiasX)));
-    if (!(normalised <= limit)) return out.status = Status::kUnobservable;
-  }
+  for (int k = 0; k < N; ++k)
+    if (!(gyro_normalised_sigma<Scalar>(p, sd, k) <= limit))
+      return out.status = Status::kUnobservable;
   out.params.template head<kGyroMatrixParams>() = p.template head<kGyroMatrixParams>();
   out.sigma.template head<N>() = sd;
   Vector3<Scalar> bias = b0_;

@@ -9,6 +9,7 @@
 #include "imucal/calibrator.hpp"
 #include "markers.hpp"
 #include "support/xsens_reader.hpp"
+#include "support/xsens_settings.hpp"
 
 using namespace imucal;
 
@@ -20,12 +21,7 @@ ImuSample<float> sample;
 }  // namespace
 
 int main() {
-  CalibratorSettings<float> settings;
-  settings.initial_rest_seconds = 40.0f;
-  settings.accel.gravity = 9.81744f;
-  settings.accel_zero_hint = Vector3<float>::Constant(32768.0f);
-  settings.gyro.nominal_scale = 1.0f / 4770.0f;
-  calibrator.reset(settings);
+  calibrator.reset(test::xsens_calibrator_settings());
   test::XsensStream in;
   if (!in.open(test::find_xsens_dir())) {
     std::printf("%s\n", in.error().c_str());

@@ -576,12 +576,7 @@ class Calibrator {
   void close_block() {
     if (block_.n == 0) return;
     if (block_.still) {
-      // A full line (blocks cut short by the segment bounds) grows its newest block instead of
-      // letting a block into the rest before trim_seconds of stillness followed it.
-      if (delay_count_ == DelayBlocks)
-        delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks].append(block_);
-      else
-        delay_push(block_);
+      delay_add(block_);
       block_.clear();
       // A still block is part of the rest once trim_seconds of stillness follow it.
       while (delay_count_ > 0 && delay_span_after_oldest() >= trim_us_) {
@@ -590,14 +585,25 @@ class Calibrator {
       }
       return;
     }
-    // Motion: the rest (if any) ends, the trimmed blocks and this one belong to the move.
-    end_rest();
-    flush_delay_to_move();
-    push_segment(block_);
+    motion_after(block_);
     block_.clear();
   }
 
-  void delay_push(const Block& b) {
+  // Motion has come: the rest (if any) ends, the trimmed blocks and then b (if any) belong to
+  // the move.
+  void motion_after(const Block& b) {
+    end_rest();
+    flush_delay_to_move();
+    push_segment(b);  // an empty block adds nothing
+  }
+
+  // A full line (blocks cut short by the segment bounds) grows its newest block instead of
+  // letting a block into the rest before trim_seconds of stillness followed it.
+  void delay_add(const Block& b) {
+    if (delay_count_ == DelayBlocks) {
+      delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks].append(b);
+      return;
+    }
     delay_[(delay_head_ + delay_count_) % DelayBlocks] = b;
     ++delay_count_;
   }
@@ -802,27 +808,23 @@ class Calibrator {
   // The stream is cut (gap): the current block and the delay line are treated as if motion
   // followed, so the rest before the cut is trimmed like any other.
   void flush_blocks_as_motion() {
-    const Block b = block_;
-    block_ = Block{};
-    if (b.n > 0 && b.still) delay_push(b);
-    end_rest();
-    flush_delay_to_move();
-    if (b.n > 0 && !b.still) push_segment(b);
+    if (block_.still && block_.n > 0) {
+      delay_add(block_);
+      block_.clear();
+    }
+    motion_after(block_);
+    block_.clear();
   }
 
   // End of the stream: if it ends still, the delay line belongs to the last rest (no motion
   // followed); if it ends in motion, the move in progress has no pose to end at.
   void end_of_stream() {
-    const Block b = block_;
-    block_ = Block{};
-    if (b.n > 0) {
-      if (b.still) {
-        delay_push(b);
-      } else {
-        end_rest();
-        flush_delay_to_move();
-        push_segment(b);
-      }
+    if (block_.n > 0) {
+      if (block_.still)
+        delay_add(block_);
+      else
+        motion_after(block_);
+      block_.clear();
     }
     if (delay_count_ > 0 || rest_open_) {
       flush_delay_to_rest();
@@ -885,10 +887,8 @@ class Calibrator {
     if (calibration_.accel.residual_rms > Scalar(3) * expected) return Quality::kFair;
     const GyroCalibration<Scalar>& g = calibration_.gyro;
     const Scalar quarter = settings_.gyro.max_normalised_sigma / Scalar(4);
-    for (int k = 0; k < kGyroMatrixParams; ++k) {
-      const Scalar v = k >= kGyroScaleX ? g.sigma(k) / std::abs(g.params(k)) : g.sigma(k);
-      if (!(v <= quarter)) return Quality::kFair;
-    }
+    for (int k = 0; k < kGyroMatrixParams; ++k)
+      if (!(gyro_normalised_sigma<Scalar>(g.params, g.sigma, k) <= quarter)) return Quality::kFair;
     return Quality::kGood;
   }
 

@@ -47,34 +47,6 @@ struct GyroData {
   int pose_count = 0;
 };
 
-// Rodrigues coefficients of the rotation vector w, theta = |w|:
-//   a = sin(theta)/theta, b = (1 - cos(theta))/theta^2, c = (theta - sin(theta))/theta^3.
-// exp([w]x) = I + a [w]x + b [w]x^2 and the left Jacobian J_l = I + b [w]x + c [w]x^2.
-// Below 0.2 rad the series is exact to float precision and avoids 0/0 and cancellation.
-template <typename Scalar>
-void rodrigues_coefficients(Scalar theta2, Scalar& a, Scalar& b, Scalar& c) {
-  if (theta2 < Scalar(0.04)) {
-    const Scalar t4 = theta2 * theta2;
-    a = Scalar(1) - theta2 / Scalar(6) + t4 / Scalar(120) - t4 * theta2 / Scalar(5040);
-    b = Scalar(0.5) - theta2 / Scalar(24) + t4 / Scalar(720) - t4 * theta2 / Scalar(40320);
-    c = Scalar(1) / Scalar(6) - theta2 / Scalar(120) + t4 / Scalar(5040) -
-        t4 * theta2 / Scalar(362880);
-    return;
-  }
-  const Scalar theta = std::sqrt(theta2);
-  const Scalar s = std::sin(theta);
-  a = s / theta;
-  b = (Scalar(1) - std::cos(theta)) / theta2;
-  c = (theta - s) / (theta2 * theta);
-}
-
-template <typename Scalar>
-Matrix3<Scalar> skew(const Vector3<Scalar>& v) {
-  Matrix3<Scalar> s;
-  s << Scalar(0), -v(2), v(1), v(2), Scalar(0), -v(0), -v(1), v(0), Scalar(0);
-  return s;
-}
-
 // The residual problem over all moves, for N = 9 (bias fixed at b0) or N = 12 (bias refined).
 // Evaluation can be sliced: a cursor carries the partial rotation of the move in progress.
 template <typename Scalar, int N>
@@ -266,6 +238,15 @@ struct GyroCalibration {
   bool bias_refined = false;
   Status status = Status::kNotStarted;
 };
+
+// A gyro parameter's sigma in comparable units: misalignment in rad, scale relative to itself,
+// bias in rad/s (times its axis' scale). p and sd: the parameters and their sigmas (9 or 12).
+template <typename Scalar, class P, class S>
+Scalar gyro_normalised_sigma(const P& p, const S& sd, int k) {
+  if (k >= kGyroBiasX) return sd(k) * std::abs(p(kGyroScaleX + (k - kGyroBiasX)));
+  if (k >= kGyroScaleX) return sd(k) / std::abs(p(k));
+  return sd(k);
+}
 
 // Fewest moves: two rows each, more rows than parameters.
 constexpr int gyro_min_moves(int n) { return n / 2 + 1; }

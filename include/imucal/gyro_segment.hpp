@@ -5,7 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
+#include <Eigen/Geometry>  // cross()
 #include <Eigen/LU>
 #include <cmath>
 #include <cstdint>
@@ -71,21 +71,41 @@ struct GyroSegment {
   }
 };
 
+// Rodrigues coefficients of the rotation vector w, theta = |w|:
+//   a = sin(theta)/theta, b = (1 - cos(theta))/theta^2, c = (theta - sin(theta))/theta^3.
+// exp([w]x) = I + a [w]x + b [w]x^2 and the left Jacobian J_l = I + b [w]x + c [w]x^2.
+// Below 0.2 rad the series is exact to float precision and avoids 0/0 and cancellation.
+template <typename Scalar>
+void rodrigues_coefficients(Scalar theta2, Scalar& a, Scalar& b, Scalar& c) {
+  if (theta2 < Scalar(0.04)) {
+    const Scalar t4 = theta2 * theta2;
+    a = Scalar(1) - theta2 / Scalar(6) + t4 / Scalar(120) - t4 * theta2 / Scalar(5040);
+    b = Scalar(0.5) - theta2 / Scalar(24) + t4 / Scalar(720) - t4 * theta2 / Scalar(40320);
+    c = Scalar(1) / Scalar(6) - theta2 / Scalar(120) + t4 / Scalar(5040) -
+        t4 * theta2 / Scalar(362880);
+    return;
+  }
+  const Scalar theta = std::sqrt(theta2);
+  const Scalar s = std::sin(theta);
+  a = s / theta;
+  b = (Scalar(1) - std::cos(theta)) / theta2;
+  c = (theta - s) / (theta2 * theta);
+}
+
+template <typename Scalar>
+Matrix3<Scalar> skew(const Vector3<Scalar>& v) {
+  Matrix3<Scalar> s;
+  s << Scalar(0), -v(2), v(1), v(2), Scalar(0), -v(0), -v(1), v(0), Scalar(0);
+  return s;
+}
+
 // exp([v]x) as a rotation matrix (Rodrigues), exact for any angle.
 template <typename Scalar>
 Matrix3<Scalar> rotation_exp(const Vector3<Scalar>& v) {
-  const Scalar angle = v.norm();
-  if (angle < Scalar(1e-12)) {
-    Matrix3<Scalar> r = Matrix3<Scalar>::Identity();
-    r(0, 1) = -v(2);
-    r(0, 2) = v(1);
-    r(1, 0) = v(2);
-    r(1, 2) = -v(0);
-    r(2, 0) = -v(1);
-    r(2, 1) = v(0);
-    return r;
-  }
-  return Eigen::AngleAxis<Scalar>(angle, v / angle).toRotationMatrix();
+  Scalar a, b, c;
+  rodrigues_coefficients(v.squaredNorm(), a, b, c);
+  const Matrix3<Scalar> w = skew(v);
+  return Matrix3<Scalar>::Identity() + a * w + b * (w * w);
 }
 
 }  // namespace imucal
