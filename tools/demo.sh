@@ -1,9 +1,16 @@
 #!/usr/bin/env bash
-# The main job: set up, build the host tools, and calibrate the bundled simulated recording
-# (raw 16-bit counts, known truth) in float, as on the device, and in double as the reference.
+# The main job: set up, build the `imucal` command, and calibrate the bundled simulated recording
+# (raw 16-bit counts, hand-turned poses, known truth) with the float streaming calibrator, as on
+# the device; then compare with the truth and write the JSON, the firmware header and the report
+# page into build/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/setup_debian.sh
 cmake --preset host >/dev/null
-cmake --build --preset host --target imucal_poses
-build/host/tools/imucal_poses calibrate data/simulated_poses_raw_counts.csv
+cmake --build --preset host --target imucal_tool >/dev/null
+mkdir -p build/demo
+build/host/tools/imucal report data/simulated_imu.csv --truth data/simulated_imu.truth.json \
+  --json build/demo/calibration.json --header build/demo/imucal_calibration.h \
+  -o build/demo/report.svg
+echo
+echo "written: build/demo/calibration.json, build/demo/imucal_calibration.h, build/demo/report.svg"

@@ -1,0 +1,382 @@
+// tools/imucal/calibrate.cpp: `imucal calibrate` and `imucal report`: the recording through the
+// same streaming calibrator as on the device (float, or double with --double), then the
+// residuals before and after, the summary, and the requested outputs.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "cli.hpp"
+#include "imucal/calibrator.hpp"
+#include "outputs.hpp"
+
+namespace imucal::cli {
+
+const char* const kAccelNames[9] = {"alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y",
+                                    "s_z",      "b_x",      "b_y",      "b_z"};
+const char* const kGyroNames[12] = {"gamma_yz", "gamma_zy", "gamma_zx", "gamma_xz",
+                                    "gamma_xy", "gamma_yx", "s_x",      "s_y",
+                                    "s_z",      "b_x",      "b_y",      "b_z"};
+
+namespace {
+
+// Shows how far the reading is, on a terminal only (stderr), at most every 64k samples.
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
+  void update(long samples, double fraction, int poses) {
+    if (!enabled_ || (samples & 0xffff) != 0) return;
+    if (fraction > 0) {
+      std::fprintf(stderr, "\r  reading: %3.0f %%, %ld samples, %d poses", 100.0 * fraction,
+                   samples, poses);
+    } else {
+      std::fprintf(stderr, "\r  reading: %ld samples, %d poses", samples, poses);
+    }
+    shown_ = true;
+  }
+  ~ProgressLine() {
+    if (shown_) std::fprintf(stderr, "\r\033[K");
+  }
+
+ private:
+  bool enabled_;
+  bool shown_ = false;
+};
+
+// Microseconds since the first sample, wrapping as the device's clock would.
+std::uint32_t device_time_us(double t, double t0) {
+  const double us = std::min(std::max((t - t0) * 1e6, 0.0), 1e15);
+  return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(us)) & 0xffffffffu);
+}
+
+double accel_nominal_scale(const Options& o) {
+  switch (o.accel_unit) {
+    case AccelUnit::kMps2:
+      return 1.0;
+    case AccelUnit::kG:
+      return kStandardGravity;
+    case AccelUnit::kCounts:
+      return kStandardGravity / o.accel_lsb_per_g;  // NaN if not given
+  }
+  return kNaN;
+}
+
+double accel_nominal_zero(const Options& o) {
+  return o.accel_unit == AccelUnit::kCounts ? o.accel_zero : 0.0;
+}
+
+// rad/s per input unit; 0 when unknown (the calibrator then searches it).
+double gyro_nominal_scale(const Options& o) {
+  switch (o.gyro_unit) {
+    case GyroUnit::kRads:
+      return 1.0;
+    case GyroUnit::kDps:
+      return kPi / 180.0;
+    case GyroUnit::kCounts:
+      return std::isfinite(o.gyro_lsb_per_dps) ? kPi / 180.0 / o.gyro_lsb_per_dps : 0.0;
+  }
+  return 0.0;
+}
+
+const char* quality_name(Quality q) {
+  switch (q) {
+    case Quality::kGood:
+      return "good";
+    case Quality::kFair:
+      return "fair";
+    case Quality::kPoor:
+      return "poor";
+    case Quality::kNone:
+      return "none";
+  }
+  return "none";
+}
+
+// The angle (deg) between gravity carried over a move by the gyro model (M, bias relative to
+// the statistics' own) and the gravity measured after it.
+template <typename Scalar, class Cal>
+double move_angle(const Cal& cal, const GyroMove& mv, const Matrix3<double>& m,
+                  const Vector3<double>& b_rel, const std::vector<PoseResult>& poses) {
+  const auto& from = poses[static_cast<std::size_t>(mv.from_pose)].up;
+  const auto& to = poses[static_cast<std::size_t>(mv.to_pose)].up;
+  Vector3<double> v(from[0], from[1], from[2]);
+  for (int k = 0; k < mv.segments; ++k) {
+    const GyroSegment<Scalar>& s = cal.segment(mv.first_segment + k);
+    GyroSegment<double> d;
+    d.alpha = s.alpha.template cast<double>();
+    d.beta = s.beta.template cast<double>();
+    d.gamma = s.gamma.template cast<double>();
+    d.duration = static_cast<double>(s.duration);
+    v = rotation_exp<double>(d.rotation_vector(m, b_rel)).transpose() * v;
+  }
+  const Vector3<double> g(to[0], to[1], to[2]);
+  return std::atan2(v.cross(g).norm(), v.dot(g)) * kDeg;
+}
+
+double rms(const std::vector<double>& v) {
+  double sum = 0;
+  long n = 0;
+  for (double x : v) {
+    if (!std::isfinite(x)) return kNaN;
+    sum += x * x;
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
+}
+
+template <typename Scalar>
+int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
+                    std::vector<Sample>& samples) {
+  using Cal = Calibrator<Scalar>;
+  CalibratorSettings<Scalar> cs;
+  cs.initial_rest_seconds = static_cast<Scalar>(o.initial_rest);
+  cs.min_rest_seconds = static_cast<Scalar>(o.min_rest);
+  cs.accel.gravity = static_cast<Scalar>(o.gravity);
+  cs.gyro.nominal_scale = static_cast<Scalar>(gyro_nominal_scale(o));
+  cs.gyro.refine_bias = o.refine_gyro_bias;
+  const double zero = accel_nominal_zero(o);
+  if (std::isfinite(zero))
+    cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
+  auto cal = std::make_unique<Cal>(cs);  // 32 KB (float): on the heap of the host tool
+
+  run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
+  run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
+  std::map<std::string, StreamEvent> events;
+  ProgressLine progress(!o.quiet);
+  Record r;
+  double t0 = 0;
+  while (reader.next(r, diag)) {
+    if (samples.empty()) t0 = r.t;
+    samples.push_back({r.t, {r.acc[0], r.acc[1], r.acc[2]}, {r.gyro[0], r.gyro[1], r.gyro[2]}});
+    ImuSample<Scalar> s;
+    s.t_us = device_time_us(r.t, t0);
+    for (int a = 0; a < 3; ++a) {
+      s.acc(a) = static_cast<Scalar>(r.acc[a]);
+      s.gyro(a) = static_cast<Scalar>(r.gyro[a]);
+    }
+    const Status st = cal->add(s);
+    if (st != Status::kOk) {
+      StreamEvent& e = events[to_string(st)];
+      if (e.count++ == 0) e.first_t = r.t;
+      e.status = to_string(st);
+    }
+    progress.update(static_cast<long>(samples.size()), reader.fraction_read(),
+                    cal->progress().poses);
+  }
+  for (auto& kv : events) run.events.push_back(kv.second);
+  run.samples = static_cast<long>(samples.size());
+  run.lines_skipped = reader.lines_skipped();
+  if (samples.empty()) {
+    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
+    return 2;
+  }
+  run.t_first = samples.front().t;
+  run.t_last = samples.back().t;
+  if (samples.size() > 1)
+    run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
+
+  const Status solved = cal->solve_all();
+  const Calibration<Scalar>& c = cal->calibration();
+  const Progress p = cal->progress();
+  run.poses = p.poses;
+  run.moves = p.moves;
+  run.segments = p.segments;
+  run.coarsenings = p.coarsenings;
+  run.rests_too_short = p.rests_too_short;
+  run.moves_dropped = p.moves_dropped;
+  run.faces = p.faces;
+  run.faces_covered = p.faces_covered;
+  // A solve refused before the accelerometer started (too few poses) says so there.
+  run.accel_status = to_string(c.accel.status == Status::kNotStarted ? solved : c.accel.status);
+  run.accel_ok = succeeded(c.accel.status);
+  run.accel_iterations = c.accel.iterations;
+  run.gyro_status = to_string(
+      c.gyro.status == Status::kNotStarted && !run.accel_ok ? Status::kNotStarted : c.gyro.status);
+  run.gyro_ok = succeeded(c.gyro.status);
+  run.gyro_iterations = c.gyro.iterations;
+  run.gyro_bias_refined = c.gyro.bias_refined;
+  run.quality = quality_name(c.quality);
+  run.usable = run.accel_ok && run.gyro_ok;
+  for (int k = 0; k < 9; ++k) {
+    run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));
+    run.accel_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.sigma(k));
+  }
+  for (int k = 0; k < 12; ++k) {
+    run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
+    run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
+  }
+
+  // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
+  const double sa = accel_nominal_scale(o);
+  run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);
+  run.accel_nominal.fill(0.0);
+  for (int a = 0; a < 3; ++a) {
+    run.accel_nominal[static_cast<std::size_t>(3 + a)] = sa;
+    run.accel_nominal[static_cast<std::size_t>(6 + a)] = -zero;
+  }
+  const double sg = gyro_nominal_scale(o);
+  run.have_nominal_gyro = sg > 0;
+  run.gyro_nominal.fill(0.0);
+  for (int a = 0; a < 3; ++a) {
+    run.gyro_nominal[static_cast<std::size_t>(6 + a)] = sg;
+    run.gyro_nominal[static_cast<std::size_t>(9 + a)] = static_cast<double>(cal->gyro_bias0()(a));
+  }
+
+  // Poses: times (unwrapped from the device's 32-bit microseconds), means, residuals.
+  const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
+  const AccelVector<double> pn = Eigen::Map<const AccelVector<double>>(run.accel_nominal.data());
+  const PoseSpan<Scalar> poses = cal->poses();
+  std::uint64_t unwrapped = 0;
+  std::uint32_t previous = 0;
+  std::vector<std::uint64_t> begin_us, end_us;
+  for (int i = 0; i < poses.size; ++i) {
+    PoseResult pr;
+    unwrapped += cal->pose_begin_us(i) - previous;
+    begin_us.push_back(unwrapped);
+    unwrapped += cal->pose_end_us(i) - cal->pose_begin_us(i);
+    end_us.push_back(unwrapped);
+    previous = cal->pose_end_us(i);
+    pr.t_begin = t0 + 1e-6 * static_cast<double>(begin_us.back());
+    pr.t_end = t0 + 1e-6 * static_cast<double>(end_us.back());
+    pr.samples = static_cast<int>(poses[i].samples);
+    const Vector3<double> mean = poses[i].mean.template cast<double>();
+    for (int a = 0; a < 3; ++a) pr.mean[a] = mean(a);
+    if (run.accel_ok) {
+      const Vector3<double> cal_mean = accel_apply(pa, mean);
+      pr.residual_after = o.gravity - cal_mean.norm();
+      const Vector3<double> up = cal_mean.normalized();
+      for (int a = 0; a < 3; ++a) pr.up[a] = up(a);
+    }
+    if (run.have_nominal_accel) pr.residual_before = o.gravity - accel_apply(pn, mean).norm();
+    run.pose_list.push_back(pr);
+  }
+  std::vector<double> before, after;
+  for (const PoseResult& pr : run.pose_list) {
+    before.push_back(pr.residual_before);
+    after.push_back(pr.residual_after);
+  }
+  run.accel_pose_rms_before = rms(before);
+  run.accel_pose_rms_after = rms(after);
+
+  // Per sample over the pose windows: |g| - |a_cal|, and the scatter of |a_cal| about its pose's
+  // mean (the sensor's own noise, a floor no calibration goes below).
+  if (run.accel_ok) {
+    double sum = 0, sum_noise = 0;
+    long n = 0;
+    std::size_t k = 0;
+    for (const Sample& s : samples) {
+      const std::uint64_t us = static_cast<std::uint64_t>(std::llround((s.t - t0) * 1e6));
+      while (k < begin_us.size() && us > end_us[k]) ++k;
+      if (k >= begin_us.size()) break;
+      if (us < begin_us[k]) continue;
+      const double norm = accel_apply(pa, Vector3<double>(s.acc[0], s.acc[1], s.acc[2])).norm();
+      const double mean_norm = o.gravity - run.pose_list[k].residual_after;
+      sum += (o.gravity - norm) * (o.gravity - norm);
+      sum_noise += (norm - mean_norm) * (norm - mean_norm);
+      ++n;
+    }
+    if (n > 0) {
+      run.accel_sample_rms_after = std::sqrt(sum / static_cast<double>(n));
+      run.accel_noise_floor = std::sqrt(sum_noise / static_cast<double>(n));
+    }
+  }
+
+  // Moves: the angle between carried and measured gravity, nominal and calibrated gyro model
+  // (gravity directions from the calibrated accelerometer in both).
+  if (run.accel_ok) {
+    const Vector3<double> b0 = cal->gyro_bias0().template cast<double>();
+    const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
+    const GyroVector<double> pgn = Eigen::Map<const GyroVector<double>>(run.gyro_nominal.data());
+    before.clear();
+    after.clear();
+    for (int i = 0; i < cal->move_count(); ++i) {
+      const GyroMove& mv = cal->move(i);
+      MoveResult m;
+      m.from = mv.from_pose;
+      m.to = mv.to_pose;
+      m.segments = mv.segments;
+      for (int k = 0; k < mv.segments; ++k)
+        m.duration += static_cast<double>(cal->segment(mv.first_segment + k).duration);
+      if (run.have_nominal_gyro)
+        m.angle_before = move_angle<Scalar>(*cal, mv, gyro_matrix<double>(pgn),
+                                            Vector3<double>::Zero(), run.pose_list);
+      if (run.gyro_ok)
+        m.angle_after = move_angle<Scalar>(*cal, mv, gyro_matrix<double>(pg),
+                                           Vector3<double>(pg.tail<3>() - b0), run.pose_list);
+      before.push_back(m.angle_before);
+      after.push_back(m.angle_after);
+      run.move_list.push_back(m);
+    }
+    run.gyro_rms_before = rms(before);
+    run.gyro_rms_after = rms(after);
+  }
+  return run.usable ? 0 : 1;
+}
+
+void print_diagnostics(const Diagnostics& diag) {
+  for (const Diagnostic& d : diag.kept()) std::fprintf(stderr, "imucal: %s\n", d.text().c_str());
+  if (diag.count() > diag.kept().size())
+    std::fprintf(stderr, "imucal: ... and %zu more\n", diag.count() - diag.kept().size());
+}
+
+}  // namespace
+
+int calibrate_command(const std::vector<std::string>& args, bool report) {
+  Options o;
+  std::string error;
+  if (!parse_calibrate_options(args, o, error)) {
+    std::fprintf(stderr, "imucal: %s\n", error.c_str());
+    return 2;
+  }
+  if (report && o.svg_path.empty()) {
+    std::fprintf(stderr, "imucal report: give the page to write with -o PAGE.svg\n");
+    return 2;
+  }
+  if (o.files.empty()) {
+    std::fprintf(stderr, "imucal: no input (a CSV file, - for stdin, or two imu_tk files)\n");
+    return 2;
+  }
+  Diagnostics diag;
+  SampleReader reader;
+  if (!reader.open(o.files, o.format, diag)) {
+    print_diagnostics(diag);
+    return 2;
+  }
+  if (!apply_file_settings(reader.file_settings(), o, error)) {
+    std::fprintf(stderr, "imucal: %s\n", error.c_str());
+    return 2;
+  }
+  if (o.accel_unit == AccelUnit::kCounts && std::isfinite(o.accel_lsb_per_g) &&
+      !std::isfinite(o.accel_zero))
+    o.accel_zero = 0;  // signed counts unless a zero was given
+  reader.set_time_unit(o.time_unit);
+
+  Run run;
+  std::vector<Sample> samples;
+  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
+                                : run_calibration<float>(o, reader, diag, run, samples);
+  run.diagnostic_count = static_cast<long>(diag.count());
+  for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
+  print_diagnostics(diag);
+  if (run.samples == 0) return 2;
+
+  print_summary(run, o, stdout);
+  bool written = true;
+  if (!o.truth_path.empty()) written = compare_with_truth(run, o.truth_path, stdout) && written;
+  if (!o.json_path.empty()) written = write_json(run, o, o.json_path) && written;
+  if (!o.header_path.empty()) {
+    if (run.usable) {
+      written = write_header(run, o, o.header_path) && written;
+    } else {
+      std::fprintf(stderr, "imucal: no header written: the calibration is not usable\n");
+    }
+  }
+  if (!o.svg_path.empty())
+    written = write_text_file(o.svg_path, report_svg(run, o, samples)) && written;
+  if (!written) return 2;
+  return code;
+}
+
+}  // namespace imucal::cli

@@ -1,0 +1,62 @@
+// tools/imucal/cli.cpp: the subcommands and the help text.
+#include "cli.hpp"
+
+#include <cstdio>
+
+namespace imucal::cli {
+
+namespace {
+
+const char* const kHelp =
+    R"(imucal: calibrate an IMU's accelerometer and gyroscope from a hand-turned recording
+(still poses joined by turns), with the streaming calibrator that runs on the device.
+
+  imucal calibrate [options] FILE            imucal CSV (or - for stdin)
+  imucal calibrate [options] ACC_FILE GYRO_FILE   imu_tk's two `t x y z` files
+  imucal report -o PAGE.svg [options] FILE...     the same, plus a picture page
+  imucal simulate -o FILE [--truth FILE] [--seed N] [--poses N] [--rate HZ]
+                  [--initial-rest S] [--units counts|si]   a recording with known truth
+
+Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, gz (optional
+temp, mx, my, mz; any order). Lines starting with # are comments; `# imucal: key=value ...`
+in a comment sets the data options below (the command line wins).
+
+Options (calibrate, report):
+  --format auto|csv|imutk         auto: two files are imu_tk, one is CSV
+  --time-unit s|ms|us             unit of t (default s)
+  --accel-unit counts|g|mps2      raw accelerometer unit (default mps2)
+  --gyro-unit counts|dps|rads     raw gyroscope unit (default rads)
+  --accel-lsb-per-g N             nominal counts per g (counts: gives the "before" residual)
+  --accel-zero Z                  nominal raw reading at 0 g (e.g. 32768; default 0)
+  --gyro-lsb-per-dps N            nominal counts per deg/s (counts: else the scale is searched)
+  --gravity G                     local gravity, m/s^2 (default 9.80665)
+  --initial-rest S                the still start used for the gyro bias and noise (default 10)
+  --min-rest S                    shorter rests are not poses (default 1)
+  --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
+  --double                        run the double-precision reference instead of float
+  --json FILE                     every parameter and sigma, model, poses, configuration
+  --header FILE                   a C/C++ header of constants for firmware
+  --truth FILE                    compare with the truth file of `imucal simulate`
+  -o, --output FILE               the SVG page (report)
+  --quiet                         no progress display on the terminal
+
+Exit code: 0 a usable calibration, 1 none (the summary says why), 2 bad usage or input.
+)";
+
+}  // namespace
+
+int imucal_main(const std::vector<std::string>& args) {
+  if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
+    std::fputs(kHelp, args.empty() ? stderr : stdout);
+    return args.empty() ? 2 : 0;
+  }
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  if (args[0] == "calibrate") return calibrate_command(rest, false);
+  if (args[0] == "report") return calibrate_command(rest, true);
+  if (args[0] == "simulate") return simulate_command(rest);
+  std::fprintf(stderr, "imucal: unknown command '%s' (calibrate, report, simulate, help)\n",
+               args[0].c_str());
+  return 2;
+}
+
+}  // namespace imucal::cli

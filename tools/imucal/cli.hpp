@@ -1,0 +1,27 @@
+// tools/imucal/cli.hpp: the `imucal` command line (host only).
+//   imucal calibrate [options] FILE...   calibrate a recording (CSV, imu_tk pair, or - for stdin)
+//   imucal report -o PAGE.svg [options] FILE...   the same, plus the picture page
+//   imucal simulate -o FILE [--truth FILE] [--seed N] ...   a recording with known truth
+// Exit codes: 0 a usable calibration (both sensors) or a command done; 1 the recording did not
+// give a usable calibration; 2 a usage error or an unreadable input.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "run.hpp"
+
+namespace imucal::cli {
+
+int imucal_main(const std::vector<std::string>& args);
+
+// Parts exposed for the tests.
+bool parse_calibrate_options(const std::vector<std::string>& args, Options& options,
+                             std::string& error);
+// Applies `# imucal: key=value` settings read from the input unless the command line set them.
+bool apply_file_settings(const std::vector<FileSetting>& settings, Options& options,
+                         std::string& error);
+int calibrate_command(const std::vector<std::string>& args, bool report);
+int simulate_command(const std::vector<std::string>& args);
+
+}  // namespace imucal::cli

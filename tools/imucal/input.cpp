@@ -1,0 +1,526 @@
+// tools/imucal/input.cpp: line reading, field splitting, the CSV and imu_tk readers.
+#include "input.hpp"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+
+namespace imucal::cli {
+
+std::string Diagnostic::text() const {
+  std::string s = file;
+  if (line > 0) s += ":" + std::to_string(line);
+  if (column > 0) s += ":" + std::to_string(column);
+  return s + ": " + message;
+}
+
+void Diagnostics::add(Diagnostic d) {
+  ++count_;
+  if (kept_.size() < keep_) kept_.push_back(std::move(d));
+}
+
+// --- LineReader ---------------------------------------------------------------------------
+
+LineReader::~LineReader() {
+  if (owns_ && file_ != nullptr) std::fclose(file_);
+}
+
+bool LineReader::open(const std::string& path, Diagnostics& diag) {
+  name_ = path == "-" ? "<stdin>" : path;
+  if (path == "-") {
+    file_ = stdin;
+  } else {
+    file_ = std::fopen(path.c_str(), "rb");
+    owns_ = true;
+    if (file_ == nullptr) {
+      diag.add({name_, 0, 0, std::string("cannot open: ") + std::strerror(errno)});
+      return false;
+    }
+    struct stat st {};
+    if (fstat(fileno(file_), &st) == 0 && S_ISREG(st.st_mode))
+      size_ = static_cast<std::uint64_t>(st.st_size);
+  }
+  buf_.resize(kMaxLine + (1 << 16));
+  return true;
+}
+
+void LineReader::open_memory(std::string_view text, const std::string& name) {
+  name_ = name;
+  memory_ = text;
+  from_memory_ = true;
+  size_ = text.size();
+}
+
+bool LineReader::fill() {
+  if (eof_) return false;
+  if (begin_ > 0) {
+    std::memmove(buf_.data(), buf_.data() + begin_, end_ - begin_);
+    end_ -= begin_;
+    begin_ = 0;
+  }
+  const std::size_t got = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
+  end_ += got;
+  if (got == 0) eof_ = true;
+  return got > 0;
+}
+
+bool LineReader::next(std::string_view& line, Diagnostics& diag) {
+  for (;;) {
+    std::string_view rest;
+    if (from_memory_) {
+      rest = memory_.substr(begin_);
+    } else {
+      rest = std::string_view(buf_.data() + begin_, end_ - begin_);
+    }
+    const std::size_t nl = rest.find('\n');
+    bool complete = nl != std::string_view::npos;
+    if (!complete && !from_memory_ && rest.size() <= kMaxLine && fill()) continue;
+    if (!complete && rest.empty()) return false;
+    std::size_t len = complete ? nl : rest.size();
+    ++line_;
+    if (len > kMaxLine) {
+      diag.add({name_, line_, 0,
+                "line longer than " + std::to_string(kMaxLine) + " characters: skipped"});
+      // Skip to the end of this line, however long.
+      for (;;) {
+        if (from_memory_) {
+          rest = memory_.substr(begin_);
+        } else {
+          rest = std::string_view(buf_.data() + begin_, end_ - begin_);
+        }
+        const std::size_t at = rest.find('\n');
+        if (at != std::string_view::npos) {
+          begin_ += at + 1;
+          consumed_ += at + 1;
+          break;
+        }
+        begin_ += rest.size();
+        consumed_ += rest.size();
+        if (from_memory_ || !fill()) break;
+      }
+      continue;
+    }
+    line = rest.substr(0, len);
+    begin_ += complete ? len + 1 : len;
+    consumed_ += complete ? len + 1 : len;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return true;
+  }
+}
+
+// --- fields and numbers -------------------------------------------------------------------
+
+void split_fields(std::string_view line, std::vector<Field>& out) {
+  out.clear();
+  const std::size_t n = line.size();
+  auto blank = [](char c) { return c == ' ' || c == '\t'; };
+  if (line.find_first_of(",;") == std::string_view::npos) {
+    // Blank-separated (imu_tk's format): runs of blanks separate.
+    std::size_t i = 0;
+    while (i < n) {
+      while (i < n && blank(line[i])) ++i;
+      if (i >= n) break;
+      const std::size_t start = i;
+      while (i < n && !blank(line[i])) ++i;
+      out.push_back({line.substr(start, i - start), start});
+    }
+    return;
+  }
+  // Comma- or semicolon-separated: every separator starts a field (an empty one is a field);
+  // blanks around a field are trimmed.
+  std::size_t start = 0;
+  for (;;) {
+    std::size_t stop = line.find_first_of(",;", start);
+    if (stop == std::string_view::npos) stop = n;
+    std::size_t b = start, e = stop;
+    while (b < e && blank(line[b])) ++b;
+    while (e > b && blank(line[e - 1])) --e;
+    out.push_back({line.substr(b, e - b), b});
+    if (stop == n) break;
+    start = stop + 1;
+  }
+}
+
+bool parse_number(std::string_view text, double& out) {
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  if (text.empty()) return false;
+  const char* end = text.data() + text.size();
+  const auto r = std::from_chars(text.data(), end, out);
+  return r.ec == std::errc() && r.ptr == end;
+}
+
+namespace {
+
+std::string lower(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+std::string quoted(std::string_view s) {
+  constexpr std::size_t kShown = 24;
+  std::string r = "'";
+  for (std::size_t i = 0; i < s.size() && i < kShown; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (std::isprint(c)) {
+      r += static_cast<char>(c);
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      r += hex;
+    }
+  }
+  if (s.size() > kShown) r += "...";
+  return r + "'";
+}
+
+// "# imucal: key=value key=value" -> settings.
+void parse_settings(std::string_view line, const LineReader& in, std::vector<FileSetting>& out) {
+  std::string_view rest = line.substr(1);
+  while (!rest.empty() && (rest.front() == ' ' || rest.front() == '\t')) rest.remove_prefix(1);
+  constexpr std::string_view kTag = "imucal:";
+  if (rest.substr(0, kTag.size()) != kTag) return;
+  rest.remove_prefix(kTag.size());
+  std::vector<Field> fields;
+  split_fields(rest, fields);
+  for (const Field& f : fields) {
+    const std::size_t eq = f.text.find('=');
+    FileSetting s;
+    s.key = std::string(f.text.substr(0, eq));
+    s.value = eq == std::string_view::npos ? "" : std::string(f.text.substr(eq + 1));
+    s.file = in.name();
+    s.line = in.line_number();
+    out.push_back(std::move(s));
+  }
+}
+
+constexpr const char* kAxisNames[3] = {"x", "y", "z"};
+constexpr const char* kRequired = "t, ax, ay, az, gx, gy, gz";
+
+}  // namespace
+
+// --- SampleReader --------------------------------------------------------------------------
+
+void SampleReader::report(const LineReader& in, long column, std::string message,
+                          Diagnostics& diag) {
+  diag.add({in.name(), in.line_number(), column, std::move(message)});
+}
+
+// The next line that is neither blank nor a comment (settings in comments are collected).
+bool SampleReader::content_line(LineReader& in, std::string_view& line, Diagnostics& diag) {
+  while (in.next(line, diag)) {
+    std::size_t i = 0;
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    if (i == line.size()) continue;
+    if (line[i] == '#') {
+      parse_settings(line.substr(i), in, settings_);
+      continue;
+    }
+    return true;
+  }
+  return false;
+}
+
+bool SampleReader::open(const std::vector<std::string>& files, Format format, Diagnostics& diag) {
+  files_ = static_cast<int>(files.size());
+  if (files_ < 1 || files_ > 2) {
+    diag.add({"imucal", 0, 0,
+              "expected one CSV file (or - for stdin), or the imu_tk accelerometer and gyroscope "
+              "files"});
+    return false;
+  }
+  for (int i = 0; i < files_; ++i)
+    if (!in_[i].open(files[static_cast<std::size_t>(i)], diag)) return false;
+  return start(format, diag);
+}
+
+bool SampleReader::open_memory(const std::vector<std::string_view>& texts, Format format,
+                               Diagnostics& diag) {
+  files_ = static_cast<int>(std::min<std::size_t>(texts.size(), 2));
+  if (files_ < 1) return false;
+  for (int i = 0; i < files_; ++i)
+    in_[i].open_memory(texts[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>");
+  return start(format, diag);
+}
+
+void SampleReader::set_time_unit(TimeUnit time) {
+  time_scale_ = time == TimeUnit::kSeconds ? 1.0 : time == TimeUnit::kMilliseconds ? 1e-3 : 1e-6;
+}
+
+bool SampleReader::start(Format format, Diagnostics& diag) {
+  format_ = format;
+  if (format_ == Format::kAuto) format_ = files_ == 2 ? Format::kImuTk : Format::kCsv;
+  if (format_ == Format::kImuTk && files_ != 2) {
+    diag.add({in_[0].name(), 0, 0,
+              "the imu_tk format needs two files: the accelerometer's and the gyroscope's"});
+    return false;
+  }
+  if (format_ == Format::kCsv && files_ != 1) {
+    diag.add({in_[0].name(), 0, 0, "the CSV format reads one file (or - for stdin)"});
+    return false;
+  }
+  if (format_ == Format::kCsv) return read_header(diag);
+  // imu_tk: the settings comments at the top of either file, before the first sample.
+  for (int i = 0; i < 2; ++i) {
+    std::string_view line;
+    if (!content_line(in_[i], line, diag)) {
+      diag.add({in_[i].name(), 0, 0, "no samples: expected lines of `t x y z`"});
+      return false;
+    }
+    pending_[i] = std::string(line);
+    has_pending_[i] = true;
+  }
+  return true;
+}
+
+bool SampleReader::read_header(Diagnostics& diag) {
+  LineReader& in = in_[0];
+  std::string_view line;
+  if (!content_line(in, line, diag)) {
+    diag.add({in.name(), 0, 0,
+              std::string("empty: expected a header line naming the columns (") + kRequired +
+                  "; optional temp, mx, my, mz)"});
+    return false;
+  }
+  split_fields(line, fields_);
+  double number = 0;
+  if (!fields_.empty() && parse_number(fields_[0].text, number)) {
+    std::string msg =
+        std::string("expected a header line naming the columns (") + kRequired + "), found numbers";
+    if (fields_.size() == 4)
+      msg +=
+          "; this looks like an imu_tk file (t x y z): give the accelerometer file and the "
+          "gyroscope file";
+    report(in, 1, msg, diag);
+    return false;
+  }
+  columns_ = fields_.size();
+  for (std::size_t c = 0; c < fields_.size(); ++c) {
+    const std::string name = lower(fields_[c].text);
+    const int ci = static_cast<int>(c);
+    int* slot = nullptr;
+    if (name == "t" || name == "time") slot = &col_t_;
+    if (name == "temp" || name == "temperature") slot = &col_temp_;
+    for (int a = 0; a < 3; ++a) {
+      if (name == std::string("a") + kAxisNames[a]) slot = &col_acc_[a];
+      if (name == std::string("g") + kAxisNames[a]) slot = &col_gyro_[a];
+      if (name == std::string("m") + kAxisNames[a]) slot = &col_mag_[a];
+    }
+    if (slot == nullptr) continue;  // unknown columns are ignored
+    if (*slot >= 0) {
+      report(in, static_cast<long>(fields_[c].offset + 1),
+             "column " + quoted(fields_[c].text) + " named twice", diag);
+      return false;
+    }
+    *slot = ci;
+  }
+  std::string missing;
+  auto need = [&](int col, const std::string& name) {
+    if (col < 0) missing += (missing.empty() ? "" : ", ") + name;
+  };
+  need(col_t_, "t");
+  for (int a = 0; a < 3; ++a) need(col_acc_[a], std::string("a") + kAxisNames[a]);
+  for (int a = 0; a < 3; ++a) need(col_gyro_[a], std::string("g") + kAxisNames[a]);
+  if (!missing.empty()) {
+    report(in, 0, "the header names no column " + missing + " (expected " + kRequired + ")", diag);
+    return false;
+  }
+  const int mags = (col_mag_[0] >= 0) + (col_mag_[1] >= 0) + (col_mag_[2] >= 0);
+  if (mags != 0 && mags != 3) {
+    report(in, 0, "the header names some but not all of mx, my, mz", diag);
+    return false;
+  }
+  for (std::size_t c = 0; c < fields_.size(); ++c)
+    column_list_ += (c ? ", " : "") + std::string(fields_[c].text);
+  return true;
+}
+
+bool SampleReader::time_in_order(double t, const LineReader& in, long column, Diagnostics& diag) {
+  if (have_last_ && !(t > last_t_)) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg,
+                  "time %.9g s is not after the previous sample's %.9g s: line skipped", t,
+                  last_t_);
+    report(in, column, msg, diag);
+    return false;
+  }
+  have_last_ = true;
+  last_t_ = t;
+  return true;
+}
+
+bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
+  LineReader& in = in_[0];
+  std::string_view line;
+  while (content_line(in, line, diag)) {
+    split_fields(line, fields_);
+    if (fields_.size() != columns_) {
+      report(in, 0,
+             "expected " + std::to_string(columns_) + " fields (" + column_list_ + "), found " +
+                 std::to_string(fields_.size()) + ": line skipped",
+             diag);
+      ++skipped_;
+      continue;
+    }
+    bool ok = true;
+    auto get = [&](int col, const char* name, double& out) {
+      if (!ok || col < 0) return;
+      const Field& f = fields_[static_cast<std::size_t>(col)];
+      double v = 0;
+      if (!parse_number(f.text, v)) {
+        report(in, static_cast<long>(f.offset + 1),
+               std::string("expected a number for ") + name + ", found " + quoted(f.text) +
+                   ": line skipped",
+               diag);
+        ok = false;
+      } else if (!std::isfinite(v)) {
+        report(in, static_cast<long>(f.offset + 1),
+               std::string(name) + " is not finite (" + std::string(f.text) + "): line skipped",
+               diag);
+        ok = false;
+      }
+      out = v;
+    };
+    static constexpr const char* kAcc[3] = {"ax", "ay", "az"};
+    static constexpr const char* kGyro[3] = {"gx", "gy", "gz"};
+    static constexpr const char* kMag[3] = {"mx", "my", "mz"};
+    double t = 0;
+    get(col_t_, "t", t);
+    for (int a = 0; a < 3; ++a) get(col_acc_[a], kAcc[a], r.acc[a]);
+    for (int a = 0; a < 3; ++a) get(col_gyro_[a], kGyro[a], r.gyro[a]);
+    r.temp = kNaN;
+    get(col_temp_, "temp", r.temp);
+    for (int a = 0; a < 3; ++a) {
+      r.mag[a] = kNaN;
+      get(col_mag_[a], kMag[a], r.mag[a]);
+    }
+    r.t = t * time_scale_;
+    if (ok &&
+        !time_in_order(
+            r.t, in, static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1), diag))
+      ok = false;
+    if (ok) return true;
+    ++skipped_;
+  }
+  return false;
+}
+
+// The next good `t x y z` line of imu_tk file `which`.
+bool SampleReader::next_txyz(int which, double& t, double v[3], long& line_no, Diagnostics& diag) {
+  LineReader& in = in_[which];
+  std::string_view line;
+  for (;;) {
+    if (has_pending_[which]) {
+      has_pending_[which] = false;
+      line = pending_[which];
+    } else if (!content_line(in, line, diag)) {
+      break;
+    }
+    split_fields(line, fields_);
+    if (fields_.size() != 4) {
+      report(
+          in, 0,
+          "expected 4 fields (t x y z), found " + std::to_string(fields_.size()) + ": line skipped",
+          diag);
+      ++skipped_;
+      continue;
+    }
+    double x[4];
+    bool ok = true;
+    static constexpr const char* kNames[4] = {"t", "x", "y", "z"};
+    for (int k = 0; k < 4 && ok; ++k) {
+      const Field& f = fields_[static_cast<std::size_t>(k)];
+      if (!parse_number(f.text, x[k])) {
+        report(in, static_cast<long>(f.offset + 1),
+               std::string("expected a number for ") + kNames[k] + ", found " + quoted(f.text) +
+                   ": line skipped",
+               diag);
+        ok = false;
+      } else if (!std::isfinite(x[k])) {
+        report(in, static_cast<long>(f.offset + 1),
+               std::string(kNames[k]) + " is not finite: line skipped", diag);
+        ok = false;
+      }
+    }
+    if (ok && have_[which] && !(x[0] * time_scale_ > t_[which])) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg,
+                    "time %.9g s is not after the previous line's %.9g s: line skipped",
+                    x[0] * time_scale_, t_[which]);
+      report(in, 1, msg, diag);
+      ok = false;
+    }
+    if (!ok) {
+      ++skipped_;
+      continue;
+    }
+    t = x[0] * time_scale_;
+    for (int a = 0; a < 3; ++a) v[a] = x[a + 1];
+    line_no = in.line_number();
+    return true;
+  }
+  return false;
+}
+
+// Pairs the two files by timestamp (within half a microsecond); an unmatched line is reported.
+bool SampleReader::next_imutk(Record& r, Diagnostics& diag) {
+  while (have_[0] && have_[1]) {
+    const double tol = 5e-7 + 1e-12 * std::abs(t_[0]);
+    if (std::abs(t_[0] - t_[1]) <= tol) {
+      r.t = t_[0];
+      for (int a = 0; a < 3; ++a) {
+        r.acc[a] = v_[0][a];
+        r.gyro[a] = v_[1][a];
+        r.mag[a] = kNaN;
+      }
+      r.temp = kNaN;
+      for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
+      return true;
+    }
+    const int early = t_[0] < t_[1] ? 0 : 1;
+    char msg[200];
+    std::snprintf(msg, sizeof msg, "no %s sample at time %.9g s (next there: %.9g s): line skipped",
+                  early == 0 ? "gyroscope" : "accelerometer", t_[early], t_[1 - early]);
+    diag.add({in_[early].name(), vline_[early], 1, msg});
+    ++skipped_;
+    have_[early] = next_txyz(early, t_[early], v_[early], vline_[early], diag);
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (!have_[i]) continue;
+    // The other file ended: count what is left unmatched here.
+    long left = 0;
+    while (have_[i]) {
+      ++left;
+      have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
+    }
+    diag.add({in_[i].name(), 0, 0,
+              std::to_string(left) + " line(s) after the other file's last sample: skipped"});
+    skipped_ += left;
+  }
+  return false;
+}
+
+bool SampleReader::next(Record& r, Diagnostics& diag) {
+  if (format_ == Format::kCsv) return next_csv(r, diag);
+  if (!primed_) {
+    primed_ = true;
+    for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
+  }
+  return next_imutk(r, diag);
+}
+
+double SampleReader::fraction_read() const {
+  std::uint64_t done = 0, total = 0;
+  for (int i = 0; i < files_; ++i) {
+    if (in_[i].size() == 0) return 0;
+    done += in_[i].bytes_read();
+    total += in_[i].size();
+  }
+  return total == 0 ? 0 : static_cast<double>(done) / static_cast<double>(total);
+}
+
+}  // namespace imucal::cli

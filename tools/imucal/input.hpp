@@ -1,0 +1,161 @@
+// tools/imucal/input.hpp: the `imucal` tool's readers (host only, not library code).
+//
+// Two text formats, read line by line in bounded memory (a serial logger can pipe in):
+//  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz; optional temp,
+//    mx, my, mz; any order, unknown names ignored), then one sample per line. Fields are
+//    separated by commas and/or blanks. Lines starting with # are comments; a comment
+//    `# imucal: key=value ...` carries settings for the tool (see options.hpp).
+//  - imu_tk: two files of `t x y z` lines, accelerometer and gyroscope, paired by timestamp.
+// A bad line is reported (file, line, column, what was expected) and skipped; the good lines
+// are kept. Timestamps must increase.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace imucal::cli {
+
+enum class Format { kAuto, kCsv, kImuTk };
+enum class TimeUnit { kSeconds, kMilliseconds, kMicroseconds };
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// One input sample in the input's own units, time in seconds.
+struct Record {
+  double t = 0;
+  double acc[3] = {0, 0, 0};
+  double gyro[3] = {0, 0, 0};
+  double temp = kNaN;
+  double mag[3] = {kNaN, kNaN, kNaN};
+};
+
+struct Diagnostic {
+  std::string file;
+  long line = 0;    // 1-based; 0: the file as a whole
+  long column = 0;  // 1-based; 0: the line as a whole
+  std::string message;
+  std::string text() const;  // "file:line:column: message"
+};
+
+// Keeps the first `keep` diagnostics in full and counts the rest.
+class Diagnostics {
+ public:
+  explicit Diagnostics(std::size_t keep = 20) : keep_(keep) {}
+  void add(Diagnostic d);
+  std::size_t count() const { return count_; }
+  const std::vector<Diagnostic>& kept() const { return kept_; }
+
+ private:
+  std::size_t keep_;
+  std::size_t count_ = 0;
+  std::vector<Diagnostic> kept_;
+};
+
+// Lines of a file or of stdin ("-"), read in blocks. A line longer than `max_line` characters is
+// reported and skipped; CR before LF is dropped; a last line without LF still counts.
+class LineReader {
+ public:
+  LineReader() = default;
+  LineReader(const LineReader&) = delete;
+  LineReader& operator=(const LineReader&) = delete;
+  ~LineReader();
+  bool open(const std::string& path, Diagnostics& diag);  // false (reported) if unreadable
+  // Reads from memory instead of a file (the fuzz target and the tests).
+  void open_memory(std::string_view text, const std::string& name);
+  bool next(std::string_view& line, Diagnostics& diag);
+  long line_number() const { return line_; }
+  const std::string& name() const { return name_; }
+  std::uint64_t bytes_read() const { return consumed_; }
+  std::uint64_t size() const { return size_; }  // 0 if unknown (a pipe)
+
+  static constexpr std::size_t kMaxLine = 1 << 16;
+
+ private:
+  bool fill();
+  std::FILE* file_ = nullptr;
+  bool owns_ = false;
+  bool eof_ = false;
+  std::string name_;
+  std::vector<char> buf_;
+  std::size_t begin_ = 0, end_ = 0;
+  std::string_view memory_;
+  bool from_memory_ = false;
+  long line_ = 0;
+  std::uint64_t consumed_ = 0, size_ = 0;
+};
+
+// Splits a line into fields at commas, semicolons and blanks. Positions are 0-based offsets.
+struct Field {
+  std::string_view text;
+  std::size_t offset;
+};
+void split_fields(std::string_view line, std::vector<Field>& out);
+
+// A number or nothing: the whole field must parse (std::from_chars, so no locale).
+bool parse_number(std::string_view text, double& out);
+
+// The `# imucal: key=value ...` settings found in comments, in order.
+struct FileSetting {
+  std::string key, value;
+  std::string file;
+  long line;
+};
+
+class SampleReader {
+ public:
+  // files: one CSV file (or "-" for stdin), or the imu_tk accelerometer and gyroscope files.
+  // False (reported) if nothing can be read: missing file, empty file, no usable header.
+  bool open(const std::vector<std::string>& files, Format format, Diagnostics& diag);
+  // For the fuzz target and the tests: CSV text or two imu_tk texts.
+  bool open_memory(const std::vector<std::string_view>& texts, Format format, Diagnostics& diag);
+  // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
+  void set_time_unit(TimeUnit time);
+  // The next good sample; bad lines on the way are reported and skipped. False at the end.
+  bool next(Record& r, Diagnostics& diag);
+
+  Format format() const { return format_; }
+  bool has_temperature() const { return col_temp_ >= 0; }
+  bool has_magnetometer() const { return col_mag_[0] >= 0; }
+  long lines_skipped() const { return skipped_; }
+  const std::vector<FileSetting>& file_settings() const { return settings_; }
+  // Progress over all files: bytes read / bytes in total (0 if unknown).
+  double fraction_read() const;
+
+ private:
+  bool start(Format format, Diagnostics& diag);
+  bool read_header(Diagnostics& diag);
+  bool next_csv(Record& r, Diagnostics& diag);
+  bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
+  bool next_imutk(Record& r, Diagnostics& diag);
+  bool content_line(LineReader& in, std::string_view& line, Diagnostics& diag);
+  bool time_in_order(double t, const LineReader& in, long column, Diagnostics& diag);
+  void report(const LineReader& in, long column, std::string message, Diagnostics& diag);
+
+  LineReader in_[2];
+  int files_ = 0;
+  Format format_ = Format::kAuto;
+  double time_scale_ = 1.0;
+  // CSV column indices (-1: absent).
+  int col_t_ = -1, col_acc_[3] = {-1, -1, -1}, col_gyro_[3] = {-1, -1, -1};
+  int col_temp_ = -1, col_mag_[3] = {-1, -1, -1};
+  std::size_t columns_ = 0;
+  std::string column_list_;
+  std::vector<Field> fields_;
+  std::string pending_[2];  // imu_tk: the first sample line, read by open()
+  bool has_pending_[2] = {false, false};
+  // imu_tk: one look-ahead sample per file.
+  bool primed_ = false;
+  bool have_[2] = {false, false};
+  double t_[2] = {0, 0}, v_[2][3] = {};
+  long vline_[2] = {0, 0};
+  bool have_last_ = false;
+  double last_t_ = 0;
+  long skipped_ = 0;
+  std::vector<FileSetting> settings_;
+};
+
+}  // namespace imucal::cli

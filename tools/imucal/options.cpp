@@ -1,0 +1,181 @@
+// tools/imucal/options.cpp: the calibrate/report options, from the command line and from
+// `# imucal: key=value` comments in the input (the command line wins).
+#include <cmath>
+#include <initializer_list>
+#include <string_view>
+
+#include "cli.hpp"
+
+namespace imucal::cli {
+
+namespace {
+
+enum class Where { kAnywhere, kCommandLineOnly };
+
+struct Key {
+  const char* name;
+  bool flag;  // takes no value
+  Where where;
+};
+
+// Settings that describe the data may come from the file; outputs and modes only from the
+// command line.
+constexpr Key kKeys[] = {
+    {"format", false, Where::kCommandLineOnly},
+    {"time-unit", false, Where::kAnywhere},
+    {"accel-unit", false, Where::kAnywhere},
+    {"gyro-unit", false, Where::kAnywhere},
+    {"accel-lsb-per-g", false, Where::kAnywhere},
+    {"accel-zero", false, Where::kAnywhere},
+    {"gyro-lsb-per-dps", false, Where::kAnywhere},
+    {"gravity", false, Where::kAnywhere},
+    {"initial-rest", false, Where::kAnywhere},
+    {"min-rest", false, Where::kAnywhere},
+    {"refine-gyro-bias", true, Where::kCommandLineOnly},
+    {"double", true, Where::kCommandLineOnly},
+    {"quiet", true, Where::kCommandLineOnly},
+    {"json", false, Where::kCommandLineOnly},
+    {"header", false, Where::kCommandLineOnly},
+    {"output", false, Where::kCommandLineOnly},
+    {"truth", false, Where::kCommandLineOnly},
+};
+
+const Key* find_key(std::string_view name) {
+  for (const Key& k : kKeys)
+    if (name == k.name) return &k;
+  return nullptr;
+}
+
+bool positive(const std::string& key, const std::string& value, double& out, std::string& error) {
+  if (!parse_number(value, out) || !(out > 0) || !std::isfinite(out)) {
+    error = "--" + key + ": expected a positive number, found '" + value + "'";
+    return false;
+  }
+  return true;
+}
+
+bool apply(const std::string& key, const std::string& value, Options& o, std::string& error) {
+  auto choice = [&](std::initializer_list<const char*> names, int& index) {
+    index = 0;
+    for (const char* n : names) {
+      if (value == n) return true;
+      ++index;
+    }
+    error = "--" + key + ": expected one of";
+    for (const char* n : names) error += std::string(" ") + n;
+    error += ", found '" + value + "'";
+    return false;
+  };
+  int i = 0;
+  if (key == "format") {
+    if (!choice({"auto", "csv", "imutk"}, i)) return false;
+    o.format = static_cast<Format>(i);
+  } else if (key == "time-unit") {
+    if (!choice({"s", "ms", "us"}, i)) return false;
+    o.time_unit = static_cast<TimeUnit>(i);
+  } else if (key == "accel-unit") {
+    if (!choice({"counts", "g", "mps2"}, i)) return false;
+    o.accel_unit = static_cast<AccelUnit>(i);
+  } else if (key == "gyro-unit") {
+    if (!choice({"counts", "dps", "rads"}, i)) return false;
+    o.gyro_unit = static_cast<GyroUnit>(i);
+  } else if (key == "accel-lsb-per-g") {
+    return positive(key, value, o.accel_lsb_per_g, error);
+  } else if (key == "accel-zero") {
+    if (!parse_number(value, o.accel_zero) || !std::isfinite(o.accel_zero)) {
+      error = "--accel-zero: expected a number, found '" + value + "'";
+      return false;
+    }
+  } else if (key == "gyro-lsb-per-dps") {
+    return positive(key, value, o.gyro_lsb_per_dps, error);
+  } else if (key == "gravity") {
+    if (!positive(key, value, o.gravity, error)) return false;
+    if (o.gravity < 9.7 || o.gravity > 9.9) {
+      error = "--gravity: " + value + " m/s^2 is not a gravity on Earth (9.7 .. 9.9)";
+      return false;
+    }
+  } else if (key == "initial-rest") {
+    return positive(key, value, o.initial_rest, error);
+  } else if (key == "min-rest") {
+    return positive(key, value, o.min_rest, error);
+  } else if (key == "refine-gyro-bias") {
+    o.refine_gyro_bias = true;
+  } else if (key == "double") {
+    o.use_double = true;
+  } else if (key == "quiet") {
+    o.quiet = true;
+  } else if (key == "json") {
+    o.json_path = value;
+  } else if (key == "header") {
+    o.header_path = value;
+  } else if (key == "output") {
+    o.svg_path = value;
+  } else if (key == "truth") {
+    o.truth_path = value;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool parse_calibrate_options(const std::vector<std::string>& args, Options& o, std::string& error) {
+  bool files_only = false;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (files_only || a == "-" || a.size() < 2 || a[0] != '-') {
+      o.files.push_back(a);
+      continue;
+    }
+    if (a == "--") {
+      files_only = true;
+      continue;
+    }
+    std::string key = a == "-o" ? "output" : a.substr(a[1] == '-' ? 2 : 1);
+    std::string value;
+    bool has_value = false;
+    const std::size_t eq = key.find('=');
+    if (eq != std::string::npos) {
+      value = key.substr(eq + 1);
+      key.resize(eq);
+      has_value = true;
+    }
+    const Key* k = find_key(key);
+    if (k == nullptr) {
+      error = "unknown option '" + a + "' (imucal help lists them)";
+      return false;
+    }
+    if (!k->flag && !has_value) {
+      if (i + 1 >= args.size()) {
+        error = "option --" + key + " needs a value";
+        return false;
+      }
+      value = args[++i];
+    }
+    if (!apply(key, value, o, error)) return false;
+    o.command_line_keys.push_back(key);
+  }
+  return true;
+}
+
+bool apply_file_settings(const std::vector<FileSetting>& settings, Options& o, std::string& error) {
+  for (const FileSetting& s : settings) {
+    const std::string where = s.file + ":" + std::to_string(s.line);
+    const Key* k = find_key(s.key);
+    if (k == nullptr || k->where != Where::kAnywhere) {
+      error = where + ": '" + s.key + "' cannot be set in a file (data settings only)";
+      return false;
+    }
+    bool overridden = false;
+    for (const std::string& c : o.command_line_keys) overridden = overridden || c == s.key;
+    if (overridden) continue;
+    std::string e;
+    if (!apply(s.key, s.value, o, e)) {
+      error = where + ": " + e;
+      return false;
+    }
+    o.from_files.push_back(s.key + "=" + s.value + " (" + where + ")");
+  }
+  return true;
+}
+
+}  // namespace imucal::cli

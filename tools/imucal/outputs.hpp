@@ -1,0 +1,25 @@
+// tools/imucal/outputs.hpp: what `imucal calibrate` writes: the summary, the JSON record of the
+// run, the C header for firmware, the comparison with a simulator's truth file.
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "run.hpp"
+
+namespace imucal::cli {
+
+void print_summary(const Run& run, const Options& options, std::FILE* out);
+bool write_json(const Run& run, const Options& options, const std::string& path);
+bool write_header(const Run& run, const Options& options, const std::string& path);
+// Prints each parameter's error in sigmas against the truth file `imucal simulate` wrote.
+bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE* out);
+// "-" is stdout. False (reported on stderr) if it cannot be written.
+bool write_text_file(const std::string& path, const std::string& text);
+
+// The model, said once for the summary, the JSON and the header.
+extern const char* const kAccelModel;
+extern const char* const kGyroModel;
+extern const char* const kConvention;
+
+}  // namespace imucal::cli
