@@ -1,0 +1,480 @@
+// The `imucal` tool (host only): its readers on well-formed and malformed input, its options,
+// the round trip simulate -> calibrate against the truth, the C header compiled and applied, and
+// the xsens recording through the command (float and double).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "imucal/accel_model.hpp"
+#include "imucal/gyro_model.hpp"
+#include "input.hpp"
+#include "support/xsens_reader.hpp"
+#include "support/xsens_settings.hpp"
+
+namespace imucal::cli {
+namespace {
+
+using Json = nlohmann::json;
+
+struct Read {
+  std::vector<Record> records;
+  Diagnostics diag{100};
+  bool opened = false;
+};
+
+Read read_texts(const std::vector<std::string_view>& texts, Format format = Format::kAuto,
+                TimeUnit unit = TimeUnit::kSeconds) {
+  Read r;
+  SampleReader reader;
+  r.opened = reader.open_memory(texts, format, r.diag);
+  if (!r.opened) return r;
+  reader.set_time_unit(unit);
+  Record rec;
+  while (reader.next(rec, r.diag)) r.records.push_back(rec);
+  return r;
+}
+
+std::string messages(const Diagnostics& d) {
+  std::string s;
+  for (const Diagnostic& x : d.kept()) s += x.text() + "\n";
+  return s;
+}
+
+TEST(CliInput, CsvColumnsInAnyOrderWithOptionalOnes) {
+  const Read r = read_texts({"# a comment\n"
+                             "gx, gy, gz, note, t, ax, ay, az, temp\n"
+                             "1, 2, 3, x, 0.5, 4, 5, 6, 25.5\n"
+                             "\n"
+                             "7;8;9;y;1.5;10;11;12;26\r\n"},
+                            Format::kAuto, TimeUnit::kMilliseconds);
+  ASSERT_TRUE(r.opened) << messages(r.diag);
+  EXPECT_EQ(r.diag.count(), 0u) << messages(r.diag);
+  ASSERT_EQ(r.records.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.records[0].t, 0.5e-3);
+  EXPECT_DOUBLE_EQ(r.records[1].t, 1.5e-3);
+  EXPECT_DOUBLE_EQ(r.records[0].acc[2], 6);
+  EXPECT_DOUBLE_EQ(r.records[1].gyro[0], 7);
+  EXPECT_DOUBLE_EQ(r.records[1].temp, 26);
+  EXPECT_TRUE(std::isnan(r.records[0].mag[0]));
+}
+
+TEST(CliInput, SettingsInCommentsAreCollected) {
+  SampleReader reader;
+  Diagnostics diag;
+  ASSERT_TRUE(reader.open_memory({"# imucal: accel-unit=counts gravity=9.81\n"
+                                  "t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n"},
+                                 Format::kCsv, diag));
+  ASSERT_EQ(reader.file_settings().size(), 2u);
+  EXPECT_EQ(reader.file_settings()[0].key, "accel-unit");
+  EXPECT_EQ(reader.file_settings()[0].value, "counts");
+  EXPECT_EQ(reader.file_settings()[1].line, 1);
+}
+
+// Each malformed line is reported with its line and column and skipped; the good ones are kept.
+TEST(CliInput, MalformedLinesAreReportedWithLineAndColumnAndSkipped) {
+  const Read r =
+      read_texts({"t,ax,ay,az,gx,gy,gz\n"
+                  "0.00,1,2,3,4,5,6\n"    // line 2: good
+                  "0.01,1,2,3,4,5\n"      // line 3: a field short
+                  "0.02,1,2,3,4,5,6,7\n"  // line 4: a field too many
+                  "0.03,1,2,abc,4,5,6\n"  // line 5: not a number, column 10
+                  "0.04,1,2,3,nan,5,6\n"  // line 6: not finite
+                  "0.05,1,2,3,4,5,6\n"    // line 7: good
+                  "0.05,1,2,3,4,5,6\n"    // line 8: time repeats
+                  "0.01,1,2,3,4,5,6\n"    // line 9: time goes back
+                  "0.06,1,,3,4,5,6\n"     // line 10: empty field
+                  "0.07,1,2,3,4,5,6\n"    // line 11: good
+                  "0.08,1,2,3"}           // line 12: truncated last line
+      );
+  ASSERT_TRUE(r.opened);
+  ASSERT_EQ(r.records.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.records[0].t, 0.0);
+  EXPECT_DOUBLE_EQ(r.records[1].t, 0.05);
+  EXPECT_DOUBLE_EQ(r.records[2].t, 0.07);
+  ASSERT_EQ(r.diag.count(), 8u) << messages(r.diag);
+  const auto& d = r.diag.kept();
+  EXPECT_EQ(d[0].line, 3);
+  EXPECT_NE(d[0].message.find("expected 7 fields"), std::string::npos) << d[0].text();
+  EXPECT_NE(d[0].message.find("found 6"), std::string::npos);
+  EXPECT_EQ(d[1].line, 4);
+  EXPECT_NE(d[1].message.find("found 8"), std::string::npos);
+  EXPECT_EQ(d[2].line, 5);
+  EXPECT_EQ(d[2].column, 10);
+  EXPECT_NE(d[2].message.find("expected a number for az, found 'abc'"), std::string::npos)
+      << d[2].text();
+  EXPECT_EQ(d[3].line, 6);
+  EXPECT_NE(d[3].message.find("gx is not finite"), std::string::npos) << d[3].text();
+  EXPECT_EQ(d[4].line, 8);
+  EXPECT_NE(d[4].message.find("not after the previous"), std::string::npos);
+  EXPECT_EQ(d[5].line, 9);
+  EXPECT_EQ(d[6].line, 10);
+  EXPECT_NE(d[6].message.find("for ay, found ''"), std::string::npos) << d[6].text();
+  EXPECT_EQ(d[7].line, 12);
+  EXPECT_NE(d[7].message.find("found 4"), std::string::npos);
+}
+
+TEST(CliInput, EmptyOrHeaderlessInputIsRefusedWithWhatWasExpected) {
+  Read r = read_texts({""});
+  EXPECT_FALSE(r.opened);
+  EXPECT_NE(messages(r.diag).find("empty: expected a header line"), std::string::npos);
+  r = read_texts({"# only a comment\n\n"});
+  EXPECT_FALSE(r.opened);
+  r = read_texts({"0.1,1,2,3,4,5,6\n"});
+  EXPECT_FALSE(r.opened);
+  EXPECT_NE(messages(r.diag).find("found numbers"), std::string::npos) << messages(r.diag);
+  r = read_texts({"0.1 1 2 3\n"});
+  EXPECT_NE(messages(r.diag).find("imu_tk"), std::string::npos) << messages(r.diag);
+  r = read_texts({"t,ax,ay,az,gx\n0,1,2,3,4\n"});
+  EXPECT_FALSE(r.opened);
+  EXPECT_NE(messages(r.diag).find("no column gy, gz"), std::string::npos) << messages(r.diag);
+  r = read_texts({"t,ax,ay,az,gx,gy,gz,ax\n"});
+  EXPECT_FALSE(r.opened);
+  EXPECT_NE(messages(r.diag).find("named twice"), std::string::npos) << messages(r.diag);
+  // A header and nothing else opens, and gives no sample.
+  r = read_texts({"t,ax,ay,az,gx,gy,gz\n"});
+  EXPECT_TRUE(r.opened);
+  EXPECT_TRUE(r.records.empty());
+}
+
+TEST(CliInput, ImuTkFilesArePairedByTime) {
+  const Read r = read_texts({"0.00 1 2 3\n0.01 1 2 3\n0.02 1 2 3\n0.04 1 2 3\n0.05 1 2 3\n",
+                             "0.00 4 5 6\n0.02 4 5 6\n0.03 4 5 6\nbad line\n0.04 4 5 6\n"});
+  ASSERT_TRUE(r.opened);
+  ASSERT_EQ(r.records.size(), 3u) << messages(r.diag);
+  EXPECT_DOUBLE_EQ(r.records[1].t, 0.02);
+  EXPECT_DOUBLE_EQ(r.records[1].acc[0], 1);
+  EXPECT_DOUBLE_EQ(r.records[1].gyro[2], 6);
+  const std::string m = messages(r.diag);
+  EXPECT_NE(m.find("<text>:2:1: no gyroscope sample at time 0.01"), std::string::npos) << m;
+  EXPECT_NE(m.find("<text2>:3:1: no accelerometer sample at time 0.03"), std::string::npos) << m;
+  EXPECT_NE(m.find("<text2>:4: expected 4 fields"), std::string::npos) << m;
+  EXPECT_NE(m.find("1 line(s) after the other file's last sample"), std::string::npos) << m;
+}
+
+std::string temp_path(const std::string& name) { return testing::TempDir() + "imucal_cli_" + name; }
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// A million lines through the buffered file reader (lines straddle every block boundary), with
+// a bad line every 100,000 and one line of 200,000 characters: every good line kept, every bad
+// one reported at its line.
+TEST(CliInput, HugeFileKeepsEveryGoodLine) {
+  const std::string path = temp_path("huge.csv");
+  constexpr int kLines = 1000000;
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fputs("t,ax,ay,az,gx,gy,gz\n", f);
+    for (int i = 0; i < kLines; ++i) {
+      if (i % 100000 == 50000) {
+        std::fputs("0,bad\n", f);
+      } else if (i == 777777) {
+        std::fputs(std::string(200000, '7').c_str(), f);
+        std::fputs("\n", f);
+      } else {
+        std::fprintf(f, "%d.5,%d,2,3,4,5,6\n", i, i % 1000);
+      }
+    }
+    std::fclose(f);
+  }
+  SampleReader reader;
+  Diagnostics diag(100);
+  ASSERT_TRUE(reader.open({path}, Format::kAuto, diag));
+  Record rec;
+  long n = 0;
+  double sum = 0;
+  while (reader.next(rec, diag)) {
+    ++n;
+    sum += rec.acc[0];
+  }
+  EXPECT_EQ(n, kLines - 11);
+  double expected = 0;
+  for (int i = 0; i < kLines; ++i)
+    if (i % 100000 != 50000 && i != 777777) expected += i % 1000;
+  EXPECT_DOUBLE_EQ(sum, expected);
+  ASSERT_EQ(diag.count(), 11u) << messages(diag);
+  EXPECT_EQ(diag.kept()[0].line, 50002);
+  bool long_line = false;
+  for (const Diagnostic& d : diag.kept())
+    long_line =
+        long_line || (d.line == 777779 && d.message.find("longer than") != std::string::npos);
+  EXPECT_TRUE(long_line) << messages(diag);
+  EXPECT_DOUBLE_EQ(reader.fraction_read(), 1.0);
+  std::remove(path.c_str());
+}
+
+TEST(CliOptions, CommandLineWinsOverTheFile) {
+  Options o;
+  std::string error;
+  ASSERT_TRUE(parse_calibrate_options({"--gravity=9.81", "--accel-unit", "g", "f.csv", "--double"},
+                                      o, error))
+      << error;
+  EXPECT_EQ(o.files, std::vector<std::string>{"f.csv"});
+  EXPECT_DOUBLE_EQ(o.gravity, 9.81);
+  EXPECT_TRUE(o.use_double);
+  const std::vector<FileSetting> file = {{"gravity", "9.8", "f.csv", 1},
+                                         {"gyro-unit", "dps", "f.csv", 1}};
+  ASSERT_TRUE(apply_file_settings(file, o, error)) << error;
+  EXPECT_DOUBLE_EQ(o.gravity, 9.81);
+  EXPECT_EQ(o.gyro_unit, GyroUnit::kDps);
+  EXPECT_EQ(o.accel_unit, AccelUnit::kG);
+
+  Options bad;
+  EXPECT_FALSE(parse_calibrate_options({"--gravity", "98.1"}, bad, error));
+  EXPECT_NE(error.find("not a gravity on Earth"), std::string::npos) << error;
+  EXPECT_FALSE(parse_calibrate_options({"--frobnicate"}, bad, error));
+  EXPECT_NE(error.find("unknown option"), std::string::npos);
+  EXPECT_FALSE(parse_calibrate_options({"--accel-unit", "furlongs"}, bad, error));
+  EXPECT_NE(error.find("expected one of counts g mps2"), std::string::npos) << error;
+  EXPECT_FALSE(parse_calibrate_options({"--json"}, bad, error));
+  // Outputs cannot be set from a data file.
+  EXPECT_FALSE(apply_file_settings({{"json", "/etc/passwd", "f.csv", 3}}, bad, error));
+  EXPECT_NE(error.find("f.csv:3"), std::string::npos) << error;
+}
+
+Json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return Json::parse(in, nullptr, false);
+}
+
+// simulate -> calibrate -> compare with the truth: every parameter within 3 sigma (one of the 21
+// may fall in (3, 4] sigma: a correct estimator puts all 21 inside 3 sigma only 94 % of the time).
+void round_trip(int seed, bool use_double) {
+  const std::string csv = temp_path("rt" + std::to_string(seed) + ".csv");
+  const std::string truth = temp_path("rt" + std::to_string(seed) + ".truth.json");
+  const std::string out = temp_path("rt" + std::to_string(seed) + ".json");
+  ASSERT_EQ(simulate_command({"--seed", std::to_string(seed), "-o", csv, "--truth", truth}), 0);
+  std::vector<std::string> args = {csv, "--json", out, "--quiet"};
+  if (use_double) args.push_back("--double");
+  testing::internal::CaptureStdout();
+  const int code = calibrate_command(args, false);
+  const std::string summary = testing::internal::GetCapturedStdout();
+  ASSERT_EQ(code, 0) << summary;
+  const Json t = read_json(truth), r = read_json(out);
+  ASSERT_FALSE(t.is_discarded());
+  ASSERT_FALSE(r.is_discarded());
+  EXPECT_EQ(r["configuration"]["scalar"], use_double ? "double" : "float");
+  EXPECT_EQ(r["collection"]["poses"].get<int>(), 25);  // the initial rest and 24 more
+  int beyond3 = 0, checked = 0;
+  for (const char* sensor : {"accelerometer", "gyroscope"}) {
+    for (auto& [name, value] : t[sensor]["parameters"].items()) {
+      const Json& p = r[sensor]["parameters"][name];
+      const double z = (p["value"].get<double>() - value.get<double>()) / p["sigma"].get<double>();
+      EXPECT_LE(std::abs(z), 4.0) << sensor << " " << name;
+      beyond3 += std::abs(z) > 3.0;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 21);
+  EXPECT_LE(beyond3, 1);
+  // After calibration the pose residual is at the noise of a pose mean (3.3 counts / sqrt(200)
+  // samples ~ 0.0006 m/s^2), before it is the nominal model's (~0.1-1 m/s^2).
+  EXPECT_LT(r["accelerometer"]["residual_mps2"]["pose_rms_after"].get<double>(), 0.002);
+  EXPECT_GT(r["accelerometer"]["residual_mps2"]["pose_rms_before"].get<double>(), 0.05);
+  EXPECT_LT(r["gyroscope"]["residual_deg"]["move_rms_after"].get<double>(), 0.2);
+  EXPECT_GT(r["gyroscope"]["residual_deg"]["move_rms_before"].get<double>(), 0.5);
+  EXPECT_EQ(r["poses"].size(), 25u);
+  EXPECT_EQ(r["moves"].size(), 24u);
+  // Each pose lies inside a true rest (to the microsecond the file and the device keep).
+  const Json& rests = t["rests_s"];
+  for (const Json& p : r["poses"]) {
+    bool inside = false;
+    for (const Json& rest : rests)
+      inside = inside || (p["t_begin_s"].get<double>() >= rest[0].get<double>() - 1e-6 &&
+                          p["t_end_s"].get<double>() <= rest[1].get<double>() + 1e-6);
+    EXPECT_TRUE(inside) << p.dump();
+  }
+  for (const std::string& f : {csv, truth, out}) std::remove(f.c_str());
+}
+
+TEST(CliRoundTrip, SimulateCalibrateMatchesTheTruthFloat) {
+  for (int seed : {1, 2, 3}) round_trip(seed, false);
+}
+TEST(CliRoundTrip, SimulateCalibrateMatchesTheTruthDouble) {
+  for (int seed : {4, 5}) round_trip(seed, true);
+}
+
+// The header compiles as C (-Wall -Werror) and, applied as its comment says, gives the same
+// calibrated vectors as the library's model.
+TEST(CliHeader, CompilesAsCAndAppliesTheModel) {
+  const std::string csv = temp_path("h.csv"), json = temp_path("h.json"),
+                    header = temp_path("imucal_calibration.h"), prog = temp_path("h.c"),
+                    exe = temp_path("h.exe");
+  ASSERT_EQ(simulate_command({"--seed", "7", "-o", csv}), 0);
+  testing::internal::CaptureStdout();
+  const int code = calibrate_command({csv, "--json", json, "--header", header, "--quiet"}, false);
+  testing::internal::GetCapturedStdout();
+  ASSERT_EQ(code, 0);
+  write_file(prog, "#include <stdio.h>\n#include \"" + header +
+                       "\"\n"
+                       "int main(void) {\n"
+                       "  const float a[3] = {33000.f, 31000.f, 36000.f}, w[3] = {33100.f, "
+                       "32500.f, 32200.f};\n"
+                       "  for (int i = 0; i < 3; ++i) {\n"
+                       "    float ac = 0, wc = 0;\n"
+                       "    for (int j = 0; j < 3; ++j) {\n"
+                       "      ac += IMUCAL_ACCEL_M[i][j] * (a[j] + IMUCAL_ACCEL_B[j]);\n"
+                       "      wc += IMUCAL_GYRO_M[i][j] * (w[j] + IMUCAL_GYRO_B[j]);\n"
+                       "    }\n"
+                       "    printf(\"%.9g %.9g\\n\", ac, wc);\n"
+                       "  }\n"
+                       "  return IMUCAL_QUALITY >= 2 ? 0 : 1;\n"
+                       "}\n");
+  const std::string cmd = "cc -std=c99 -Wall -Wextra -Werror " + prog + " -o " + exe;
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::FILE* p = popen(exe.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  double ac[3] = {}, wc[3] = {};
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(std::fscanf(p, "%lf %lf", &ac[i], &wc[i]), 2);
+  EXPECT_EQ(pclose(p), 0);
+  const Json r = read_json(json);
+  AccelVector<double> pa;
+  GyroVector<double> pg;
+  for (int k = 0; k < 9; ++k) pa(k) = r["accelerometer"]["parameters"][kAccelNames[k]]["value"];
+  for (int k = 0; k < 12; ++k) pg(k) = r["gyroscope"]["parameters"][kGyroNames[k]]["value"];
+  const Vector3<double> a_cal = accel_apply(pa, Vector3<double>(33000, 31000, 36000));
+  const Vector3<double> w_cal = gyro_apply(pg, Vector3<double>(33100, 32500, 32200));
+  for (int i = 0; i < 3; ++i) {
+    // float constants and float sums: a few ulps of the ~300-count differences.
+    EXPECT_NEAR(ac[i], a_cal(i), 1e-4 * std::max(1.0, std::abs(a_cal(i)))) << i;
+    EXPECT_NEAR(wc[i], w_cal(i), 1e-4 * std::max(0.1, std::abs(w_cal(i)))) << i;
+  }
+  for (const std::string& f : {csv, json, header, prog, exe}) std::remove(f.c_str());
+}
+
+TEST(CliExitCodes, UsageAndInputErrorsSayWhy) {
+  const std::string empty = temp_path("empty.csv");
+  write_file(empty, "");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({empty}, false), 2);
+  std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find(empty + ": empty: expected a header line"), std::string::npos) << err;
+
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({temp_path("does_not_exist.csv")}, false), 2);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("cannot open"), std::string::npos) << err;
+
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(imucal_main({"calibrat"}), 2);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("unknown command"), std::string::npos) << err;
+
+  // Too short a recording: a summary, the reason, exit code 1.
+  const std::string few = temp_path("few.csv");
+  ASSERT_EQ(simulate_command({"--poses", "4", "-o", few}), 0);
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(calibrate_command({few, "--quiet"}, false), 1);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("too few poses"), std::string::npos) << out;
+  EXPECT_NE(out.find("NOT usable"), std::string::npos) << out;
+  for (const std::string& f : {empty, few}) std::remove(f.c_str());
+}
+
+// A broken line in the middle of a good recording: reported with file and line, skipped, and
+// the calibration is the same as without it up to that one sample of the ~1000 of the initial
+// rest: it moves the gyro bias by about its noise / 1000 (15 counts / 1000 = 0.015 counts,
+// 0.03 sigma of the ~0.46-count bias sigma); 3 times that is the bound.
+TEST(CliExitCodes, APartlyBrokenFileKeepsWhatWasGood) {
+  const std::string csv = temp_path("broken.csv"), out1 = temp_path("b1.json"),
+                    out2 = temp_path("b2.json");
+  ASSERT_EQ(simulate_command({"--seed", "3", "-o", csv}), 0);
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(calibrate_command({csv, "--json", out1, "--quiet"}, false), 0);
+  testing::internal::GetCapturedStdout();
+  // Corrupt line 500 (inside the initial rest): a field becomes text.
+  std::ifstream in(csv);
+  std::stringstream broken;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) broken << (n == 500 ? line + ",oops" : line) << "\n";
+  write_file(csv, broken.str());
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  ASSERT_EQ(calibrate_command({csv, "--json", out2, "--quiet"}, false), 0);
+  testing::internal::GetCapturedStdout();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find(csv + ":500: expected 7 fields"), std::string::npos) << err;
+  const Json a = read_json(out1), b = read_json(out2);
+  EXPECT_EQ(b["input"]["lines_skipped"], 1);
+  EXPECT_EQ(b["input"]["samples"].get<long>() + 1, a["input"]["samples"].get<long>());
+  for (const char* sensor : {"accelerometer", "gyroscope"})
+    for (auto& [name, p] : a[sensor]["parameters"].items()) {
+      const double d =
+          p["value"].get<double>() - b[sensor]["parameters"][name]["value"].get<double>();
+      EXPECT_LT(std::abs(d), 0.1 * p["sigma"].get<double>()) << sensor << " " << name;
+    }
+  for (const std::string& f : {csv, out1, out2}) std::remove(f.c_str());
+}
+
+// The xsens recording through the command, float (device) and double (reference).
+TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
+  const std::string dir = test::find_xsens_dir();
+  if (dir.empty()) {
+#ifdef IMUCAL_REQUIRE_XSENS
+    FAIL() << "xsens recording required but not found";
+#endif
+    GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)";
+  }
+  char gyro_lsb[32];
+  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
+  Json r[2];
+  for (int d = 0; d < 2; ++d) {
+    const std::string out = temp_path(d ? "xsens_double.json" : "xsens_float.json");
+    std::vector<std::string> args = {dir + "/xsens_acc.mat",
+                                     dir + "/xsens_gyro.mat",
+                                     "--accel-unit",
+                                     "counts",
+                                     "--accel-lsb-per-g",
+                                     "4070",
+                                     "--accel-zero",
+                                     "32768",
+                                     "--gyro-unit",
+                                     "counts",
+                                     "--gyro-lsb-per-dps",
+                                     gyro_lsb,
+                                     "--gravity",
+                                     "9.81744",
+                                     "--initial-rest",
+                                     "40",
+                                     "--json",
+                                     out,
+                                     "--quiet"};
+    if (d) args.push_back("--double");
+    testing::internal::CaptureStdout();
+    const int code = calibrate_command(args, false);
+    const std::string summary = testing::internal::GetCapturedStdout();
+    ASSERT_EQ(code, 0) << summary;
+    std::printf("%s", summary.c_str());
+    r[d] = read_json(out);
+    std::remove(out.c_str());
+    const Json& acc = r[d]["accelerometer"]["residual_mps2"];
+    EXPECT_GE(r[d]["collection"]["poses"].get<int>(), 40);
+    EXPECT_EQ(r[d]["collection"]["faces_covered"].get<int>(), 6);
+    // The residual the calibration minimises, per pose: well inside the 0.008 m/s^2 bar.
+    EXPECT_LE(acc["pose_rms_after"].get<double>(), 0.008);
+    // Per sample it cannot go below the sensor's own noise (0.00799 here); see test_xsens_stream.
+    const double rms = acc["sample_rms_after"], floor = acc["sample_noise_floor"];
+    EXPECT_LE(rms, 0.0081);
+    EXPECT_LE(std::sqrt(rms * rms - floor * floor), 0.0012);
+    EXPECT_LE(r[d]["gyroscope"]["residual_deg"]["move_rms_after"].get<double>(), 0.6);
+  }
+  // Float and double agree within a tenth of a sigma on every parameter.
+  for (const char* sensor : {"accelerometer", "gyroscope"})
+    for (auto& [name, p] : r[1][sensor]["parameters"].items()) {
+      const double diff =
+          p["value"].get<double>() - r[0][sensor]["parameters"][name]["value"].get<double>();
+      EXPECT_LE(std::abs(diff), 0.1 * p["sigma"].get<double>()) << sensor << " " << name;
+    }
+}
+
+}  // namespace
+}  // namespace imucal::cli
