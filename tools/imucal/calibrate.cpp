@@ -26,8 +26,8 @@ namespace {
 class ProgressLine {
  public:
   explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
-  void update(long samples, double fraction, int poses) {
-    if (!enabled_ || (samples & 0xffff) != 0) return;
+  bool due(long samples) const { return enabled_ && (samples & 0xffff) == 0; }
+  void show(long samples, double fraction, int poses) {
     if (fraction > 0) {
       std::fprintf(stderr, "\r  reading: %3.0f %%, %ld samples, %d poses", 100.0 * fraction,
                    samples, poses);
@@ -162,8 +162,8 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
       if (e.count++ == 0) e.first_t = r.t;
       e.status = to_string(st);
     }
-    progress.update(static_cast<long>(samples.size()), reader.fraction_read(),
-                    cal->progress().poses);
+    const auto n = static_cast<long>(samples.size());
+    if (progress.due(n)) progress.show(n, reader.fraction_read(), cal->progress().poses);
   }
   for (auto& kv : events) run.events.push_back(kv.second);
   run.samples = static_cast<long>(samples.size());

@@ -117,15 +117,18 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
 void split_fields(std::string_view line, std::vector<Field>& out) {
   out.clear();
   const std::size_t n = line.size();
-  auto blank = [](char c) { return c == ' ' || c == '\t'; };
-  if (line.find_first_of(",;") == std::string_view::npos) {
+  const char* const c = line.data();
+  auto blank = [](char ch) { return ch == ' ' || ch == '\t'; };
+  bool comma = false;
+  for (std::size_t i = 0; i < n && !comma; ++i) comma = c[i] == ',' || c[i] == ';';
+  if (!comma) {
     // Blank-separated (imu_tk's format): runs of blanks separate.
     std::size_t i = 0;
     while (i < n) {
-      while (i < n && blank(line[i])) ++i;
+      while (i < n && blank(c[i])) ++i;
       if (i >= n) break;
       const std::size_t start = i;
-      while (i < n && !blank(line[i])) ++i;
+      while (i < n && !blank(c[i])) ++i;
       out.push_back({line.substr(start, i - start), start});
     }
     return;
@@ -134,11 +137,11 @@ void split_fields(std::string_view line, std::vector<Field>& out) {
   // blanks around a field are trimmed.
   std::size_t start = 0;
   for (;;) {
-    std::size_t stop = line.find_first_of(",;", start);
-    if (stop == std::string_view::npos) stop = n;
+    std::size_t stop = start;
+    while (stop < n && c[stop] != ',' && c[stop] != ';') ++stop;
     std::size_t b = start, e = stop;
-    while (b < e && blank(line[b])) ++b;
-    while (e > b && blank(line[e - 1])) --e;
+    while (b < e && blank(c[b])) ++b;
+    while (e > b && blank(c[e - 1])) --e;
     out.push_back({line.substr(b, e - b), b});
     if (stop == n) break;
     start = stop + 1;
