@@ -25,5 +25,11 @@ for preset in host m4f m7 m33; do
   ctest --preset "$preset"
 done
 
+echo "== fuzzing the imucal tool's readers (libFuzzer, ASan + UBSan, 60 s)"
+tools/fuzz.sh 60
+
 echo "== instruction counts (Cortex-M4F, exact, QEMU TCG plugin)"
 bench/run_insn_bench.sh m4f
+
+echo "== whole-process time of imucal calibrate on the xsens recording"
+bench/cli_time.sh
