@@ -9,8 +9,8 @@ tools/setup_debian.sh
 cmake --preset host >/dev/null
 cmake --build --preset host --target imucal_tool >/dev/null
 mkdir -p build/demo
-build/host/tools/imucal report data/simulated_imu.csv --truth data/simulated_imu.truth.json \
+build/host/tools/imucal calibrate data/simulated_imu.csv --truth data/simulated_imu.truth.json \
   --json build/demo/calibration.json --header build/demo/imucal_calibration.h \
-  -o build/demo/report.svg
+  --svg build/demo/report.svg
 echo
 echo "written: build/demo/calibration.json, build/demo/imucal_calibration.h, build/demo/report.svg"

@@ -37,7 +37,7 @@ Options (calibrate, report):
   --json FILE                     every parameter and sigma, model, poses, configuration
   --header FILE                   a C/C++ header of constants for firmware
   --truth FILE                    compare with the truth file of `imucal simulate`
-  -o, --output FILE               the SVG page (report)
+  --svg FILE, -o FILE             the SVG report page (report needs it; calibrate may write it)
   --quiet                         no progress display on the terminal
 
 Exit code: 0 a usable calibration, 1 none (the summary says why), 2 bad usage or input.

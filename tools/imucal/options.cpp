@@ -37,6 +37,7 @@ constexpr Key kKeys[] = {
     {"json", false, Where::kCommandLineOnly},
     {"header", false, Where::kCommandLineOnly},
     {"output", false, Where::kCommandLineOnly},
+    {"svg", false, Where::kCommandLineOnly},
     {"truth", false, Where::kCommandLineOnly},
 };
 
@@ -108,7 +109,7 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     o.json_path = value;
   } else if (key == "header") {
     o.header_path = value;
-  } else if (key == "output") {
+  } else if (key == "output" || key == "svg") {
     o.svg_path = value;
   } else if (key == "truth") {
     o.truth_path = value;
