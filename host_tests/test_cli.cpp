@@ -331,6 +331,8 @@ TEST(CliHeader, CompilesAsCAndAppliesTheModel) {
                        "}\n");
   const std::string cmd = "cc -std=c99 -Wall -Wextra -Werror " + prog + " -o " + exe;
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::string cxx = "c++ -std=c++11 -Wall -Wextra -Werror -fsyntax-only -x c++ " + prog;
+  ASSERT_EQ(std::system(cxx.c_str()), 0) << cxx;
   std::FILE* p = popen(exe.c_str(), "r");
   ASSERT_NE(p, nullptr);
   double ac[3] = {}, wc[3] = {};
@@ -415,6 +417,122 @@ TEST(CliExitCodes, APartlyBrokenFileKeepsWhatWasGood) {
   for (const std::string& f : {csv, out1, out2}) std::remove(f.c_str());
 }
 
+// From a file (the buffered path), a last line without its newline, and a UTF-8 byte-order mark
+// from a spreadsheet export, are read like any other line.
+TEST(CliInput, FileWithByteOrderMarkAndNoFinalNewline) {
+  const std::string csv = temp_path("noeol.csv"), acc = temp_path("acc.txt"),
+                    gyro = temp_path("gyro.txt");
+  write_file(csv,
+             "\xef\xbb\xbft,ax,ay,az,gx,gy,gz\n0.000000,1.0,2.0,3.0,4.0,5.0,6.0\n"
+             "0.010000,11.00001,12.00001,13.00001,14.00001,15.00001,16.00001");
+  write_file(acc, "0.01 1 2 3\n0.02 11 12 13");
+  write_file(gyro, "0.01 4 5 6\r\n0.02 14 15 16");
+  for (const std::vector<std::string>& files :
+       {std::vector<std::string>{csv}, std::vector<std::string>{acc, gyro}}) {
+    SampleReader reader;
+    Diagnostics diag;
+    ASSERT_TRUE(reader.open(files, Format::kAuto, diag)) << messages(diag);
+    std::vector<Record> got;
+    Record r;
+    while (reader.next(r, diag)) got.push_back(r);
+    EXPECT_EQ(diag.count(), 0u) << messages(diag);
+    ASSERT_EQ(got.size(), 2u) << files[0];
+    EXPECT_DOUBLE_EQ(got[1].acc[0], files.size() == 1 ? 11.00001 : 11.0);
+    EXPECT_DOUBLE_EQ(got[1].gyro[2], 16.0 + (files.size() == 1 ? 0.00001 : 0.0));
+  }
+  for (const std::string& f : {csv, acc, gyro}) std::remove(f.c_str());
+}
+
+TEST(CliInput, SettingsAfterTheHeaderAreReportedNotSilentlyIgnored) {
+  const Read r = read_texts({"t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n# imucal: time-unit=us\n"});
+  ASSERT_EQ(r.records.size(), 1u);
+  ASSERT_EQ(r.diag.count(), 1u);
+  EXPECT_EQ(r.diag.kept()[0].line, 3);
+  EXPECT_NE(r.diag.kept()[0].message.find("before the header"), std::string::npos);
+}
+
+TEST(CliInput, ImuTkFilesThatNeverMatchSaySo) {
+  const Read r = read_texts({"0.00 1 2 3\n0.01 1 2 3\n", "0.005 4 5 6\n0.015 4 5 6\n"});
+  EXPECT_TRUE(r.records.empty());
+  EXPECT_NE(messages(r.diag).find("no timestamp of one file matches the other's (they start at 0 "
+                                  "s and 0.005 s)"),
+            std::string::npos)
+      << messages(r.diag);
+}
+
+// A recording with a gap longer than the device's 32-bit microsecond clock (71.6 min): the
+// calibrator sees a gap, and the poses' times in the JSON are still the file's own.
+TEST(CliExitCodes, PoseTimesSurviveAGapLongerThanTheDeviceClock) {
+  const std::string csv = temp_path("gap.csv"), truth = temp_path("gap.truth.json"),
+                    out = temp_path("gap.json");
+  ASSERT_EQ(simulate_command({"--seed", "11", "-o", csv, "--truth", truth}), 0);
+  constexpr double kShift = 4400, kFrom = 60;  // s: every time after 60 s moves 4400 s later
+  std::ifstream in(csv);
+  std::stringstream shifted;
+  std::string line;
+  while (std::getline(in, line)) {
+    double t = 0;
+    const std::size_t comma = line.find(',');
+    if (line[0] != '#' && line[0] != 't' && parse_number(line.substr(0, comma), t) && t > kFrom) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.6f", t + kShift);
+      line = buf + line.substr(comma);
+    }
+    shifted << line << "\n";
+  }
+  in.close();
+  write_file(csv, shifted.str());
+  testing::internal::CaptureStdout();
+  calibrate_command({csv, "--json", out, "--quiet"}, false);
+  testing::internal::GetCapturedStdout();
+  const Json t = read_json(truth), r = read_json(out);
+  ASSERT_FALSE(r.is_discarded());
+  ASSERT_GE(r["poses"].size(), 20u);
+  for (const Json& p : r["poses"]) {
+    bool inside = false;
+    for (const Json& rest : t["rests_s"]) {
+      const double b = rest[0].get<double>(), e = rest[1].get<double>();
+      const double sb = b > kFrom ? b + kShift : b, se = e > kFrom ? e + kShift : e;
+      inside = inside || (p["t_begin_s"].get<double>() >= sb - 1e-6 &&
+                          p["t_end_s"].get<double>() <= se + 1e-6);
+    }
+    EXPECT_TRUE(inside) << p.dump();
+  }
+  for (const std::string& f : {csv, truth, out}) std::remove(f.c_str());
+}
+
+TEST(CliExitCodes, BadSettingsTruthFilesAndStdoutOutputs) {
+  const std::string csv = temp_path("s.csv"), bad_truth = temp_path("bad_truth.json"),
+                    json = temp_path("s.json");
+  ASSERT_EQ(simulate_command({"--seed", "12", "-o", csv}), 0);
+  // Rest settings the calibrator would refuse: a usage error, said before reading.
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({csv, "--initial-rest", "0.5"}, false), 2);
+  std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("--initial-rest (0.5 s) must lie between --min-rest"), std::string::npos)
+      << err;
+  // A malformed truth file: a message and exit code 2, the JSON still written.
+  write_file(bad_truth, R"({"accelerometer":{"parameters":{"s_x":"abc"}},"gyroscope":{}})");
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({csv, "--truth", bad_truth, "--json", json, "--quiet"}, false), 2);
+  testing::internal::GetCapturedStdout();
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("is not a truth file"), std::string::npos) << err;
+  EXPECT_FALSE(read_json(json).is_discarded());
+  // --json - owns stdout: the summary goes to stderr, stdout is exactly the JSON.
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({csv, "--json", "-", "--quiet"}, false), 0);
+  const std::string out = testing::internal::GetCapturedStdout();
+  err = testing::internal::GetCapturedStderr();
+  const Json j = Json::parse(out, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << out.substr(0, 200);
+  EXPECT_TRUE(j["usable"].get<bool>());
+  EXPECT_NE(err.find("quality  good"), std::string::npos);
+  for (const std::string& f : {csv, bad_truth, json}) std::remove(f.c_str());
+}
+
 // The xsens recording through the command, float (device) and double (reference).
 TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
   const std::string dir = test::find_xsens_dir();
@@ -464,7 +582,7 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
     // Per sample it cannot go below the sensor's own noise (0.00799 here); see test_xsens_stream.
     const double rms = acc["sample_rms_after"], floor = acc["sample_noise_floor"];
     EXPECT_LE(rms, 0.0081);
-    EXPECT_LE(std::sqrt(rms * rms - floor * floor), 0.0012);
+    EXPECT_LE(std::sqrt(std::max(rms * rms - floor * floor, 0.0)), 0.0012);
     EXPECT_LE(r[d]["gyroscope"]["residual_deg"]["move_rms_after"].get<double>(), 0.6);
   }
   // Float and double agree within a tenth of a sigma on every parameter.

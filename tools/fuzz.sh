@@ -16,6 +16,7 @@ clang++ -std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
 { printf '\x00'; head -c 2000 data/simulated_imu.csv; } >"$out/corpus/csv"
 printf '\x01%s\0%s' "$(printf '0.01 1 2 3\n0.02 1 2 3\n')" "$(printf '0.01 4 5 6\n0.03 4 5 6\n')" \
   >"$out/corpus/imutk"
+{ printf '\x20'; head -c 3000 data/simulated_imu.csv; } >"$out/corpus/csv_stream"
 printf '\x00# imucal: gravity=9.81 accel-unit=g\nt;ax;ay;az;gx;gy;gz\n1;2;3\n1,nan,,x,1e999,+4,-5\r\n' \
   >"$out/corpus/bad"
 "$out/fuzz_input" -max_total_time="$seconds" -max_len=4096 -timeout=10 \

@@ -227,19 +227,21 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   // Poses: times (unwrapped from the device's 32-bit microseconds), means, residuals.
   const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
   const AccelVector<double> pn = Eigen::Map<const AccelVector<double>>(run.accel_nominal.data());
+  // A pose's first and last samples carry its device timestamps: found by one forward scan
+  // (the 32-bit clock repeats every 71.6 minutes, so time differences alone would not do).
   const PoseSpan<Scalar> poses = cal->poses();
-  std::uint64_t unwrapped = 0;
-  std::uint32_t previous = 0;
-  std::vector<std::uint64_t> begin_us, end_us;
+  std::vector<std::size_t> first_sample, last_sample;
+  std::size_t j = 0;
   for (int i = 0; i < poses.size; ++i) {
+    while (j < samples.size() && device_time_us(samples[j].t, t0) != cal->pose_begin_us(i)) ++j;
+    const std::size_t b = std::min(j, samples.size() - 1);
+    while (j < samples.size() && device_time_us(samples[j].t, t0) != cal->pose_end_us(i)) ++j;
+    const std::size_t e = std::min(j, samples.size() - 1);
+    first_sample.push_back(b);
+    last_sample.push_back(e);
     PoseResult pr;
-    unwrapped += cal->pose_begin_us(i) - previous;
-    begin_us.push_back(unwrapped);
-    unwrapped += cal->pose_end_us(i) - cal->pose_begin_us(i);
-    end_us.push_back(unwrapped);
-    previous = cal->pose_end_us(i);
-    pr.t_begin = t0 + 1e-6 * static_cast<double>(begin_us.back());
-    pr.t_end = t0 + 1e-6 * static_cast<double>(end_us.back());
+    pr.t_begin = samples[b].t;
+    pr.t_end = samples[e].t;
     pr.samples = static_cast<int>(poses[i].samples);
     const Vector3<double> mean = poses[i].mean.template cast<double>();
     for (int a = 0; a < 3; ++a) pr.mean[a] = mean(a);
@@ -265,17 +267,15 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   if (run.accel_ok) {
     double sum = 0, sum_noise = 0;
     long n = 0;
-    std::size_t k = 0;
-    for (const Sample& s : samples) {
-      const std::uint64_t us = static_cast<std::uint64_t>(std::llround((s.t - t0) * 1e6));
-      while (k < begin_us.size() && us > end_us[k]) ++k;
-      if (k >= begin_us.size()) break;
-      if (us < begin_us[k]) continue;
-      const double norm = accel_apply(pa, Vector3<double>(s.acc[0], s.acc[1], s.acc[2])).norm();
+    for (std::size_t k = 0; k < first_sample.size(); ++k) {
       const double mean_norm = o.gravity - run.pose_list[k].residual_after;
-      sum += (o.gravity - norm) * (o.gravity - norm);
-      sum_noise += (norm - mean_norm) * (norm - mean_norm);
-      ++n;
+      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
+        const Sample& s = samples[i];
+        const double norm = accel_apply(pa, Vector3<double>(s.acc[0], s.acc[1], s.acc[2])).norm();
+        sum += (o.gravity - norm) * (o.gravity - norm);
+        sum_noise += (norm - mean_norm) * (norm - mean_norm);
+        ++n;
+      }
     }
     if (n > 0) {
       run.accel_sample_rms_after = std::sqrt(sum / static_cast<double>(n));
@@ -348,6 +348,13 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal: %s\n", error.c_str());
     return 2;
   }
+  if (!(o.min_rest <= 600 && o.initial_rest >= o.min_rest && o.initial_rest <= 3600)) {
+    std::fprintf(stderr,
+                 "imucal: --initial-rest (%g s) must lie between --min-rest (%g s) and 3600 s, "
+                 "--min-rest at most 600 s\n",
+                 o.initial_rest, o.min_rest);
+    return 2;
+  }
   if (o.accel_unit == AccelUnit::kCounts && std::isfinite(o.accel_lsb_per_g) &&
       !std::isfinite(o.accel_zero))
     o.accel_zero = 0;  // signed counts unless a zero was given
@@ -361,10 +368,16 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
   print_diagnostics(diag);
   if (run.samples == 0) return 2;
+  if (reader.failed()) {
+    std::fprintf(stderr, "imucal: the input could not be read to its end: nothing written\n");
+    return 2;
+  }
 
-  print_summary(run, o, stdout);
+  // An output sent to stdout gets stdout to itself; the summary goes to stderr then.
+  const bool stdout_taken = o.json_path == "-" || o.header_path == "-" || o.svg_path == "-";
+  std::FILE* summary = stdout_taken ? stderr : stdout;
+  print_summary(run, o, summary);
   bool written = true;
-  if (!o.truth_path.empty()) written = compare_with_truth(run, o.truth_path, stdout) && written;
   if (!o.json_path.empty()) written = write_json(run, o, o.json_path) && written;
   if (!o.header_path.empty()) {
     if (run.usable) {
@@ -375,6 +388,8 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   }
   if (!o.svg_path.empty())
     written = write_text_file(o.svg_path, report_svg(run, o, samples)) && written;
+  if (!o.truth_path.empty()) written = compare_with_truth(run, o.truth_path, summary) && written;
+
   if (!written) return 2;
   return code;
 }

@@ -29,34 +29,43 @@ LineReader::~LineReader() {
   if (owns_ && file_ != nullptr) std::fclose(file_);
 }
 
-bool LineReader::open(const std::string& path, Diagnostics& diag) {
-  name_ = path == "-" ? "<stdin>" : path;
+bool LineReader::open(const std::string& path, Diagnostics& diag, std::size_t max_line,
+                      std::size_t block) {
   if (path == "-") {
-    file_ = stdin;
-  } else {
-    file_ = std::fopen(path.c_str(), "rb");
-    owns_ = true;
-    if (file_ == nullptr) {
-      diag.add({name_, 0, 0, std::string("cannot open: ") + std::strerror(errno)});
-      return false;
-    }
-    struct stat st {};
-    if (fstat(fileno(file_), &st) == 0 && S_ISREG(st.st_mode))
-      size_ = static_cast<std::uint64_t>(st.st_size);
+    open_stream(stdin, "<stdin>", max_line, block);
+    return true;
   }
-  buf_.resize(kMaxLine + (1 << 16));
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) {
+    diag.add({path, 0, 0, std::string("cannot open: ") + std::strerror(errno)});
+    return false;
+  }
+  open_stream(f, path, max_line, block);
+  owns_ = true;
+  struct stat st {};
+  if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode))
+    size_ = static_cast<std::uint64_t>(st.st_size);
   return true;
 }
 
-void LineReader::open_memory(std::string_view text, const std::string& name) {
+void LineReader::open_stream(std::FILE* f, const std::string& name, std::size_t max_line,
+                             std::size_t block) {
+  file_ = f;
+  name_ = name;
+  max_line_ = max_line;
+  buf_.resize(max_line + block);
+}
+
+void LineReader::open_memory(std::string_view text, const std::string& name, std::size_t max_line) {
   name_ = name;
   memory_ = text;
   from_memory_ = true;
   size_ = text.size();
+  max_line_ = max_line;
 }
 
-bool LineReader::fill() {
-  if (eof_) return false;
+// Moves the unread bytes to the front and reads more; sets eof_ (and error_) when none came.
+void LineReader::fill() {
   if (begin_ > 0) {
     std::memmove(buf_.data(), buf_.data() + begin_, end_ - begin_);
     end_ -= begin_;
@@ -64,34 +73,44 @@ bool LineReader::fill() {
   }
   const std::size_t got = std::fread(buf_.data() + end_, 1, buf_.size() - end_, file_);
   end_ += got;
-  if (got == 0) eof_ = true;
-  return got > 0;
+  if (got == 0) {
+    eof_ = true;
+    if (std::ferror(file_) != 0) error_ = std::strerror(errno);
+  }
+}
+
+std::string_view LineReader::unread() const {
+  return from_memory_ ? memory_.substr(begin_)
+                      : std::string_view(buf_.data() + begin_, end_ - begin_);
 }
 
 bool LineReader::next(std::string_view& line, Diagnostics& diag) {
   for (;;) {
-    std::string_view rest;
-    if (from_memory_) {
-      rest = memory_.substr(begin_);
-    } else {
-      rest = std::string_view(buf_.data() + begin_, end_ - begin_);
-    }
+    std::string_view rest = unread();
     const std::size_t nl = rest.find('\n');
-    bool complete = nl != std::string_view::npos;
-    if (!complete && !from_memory_ && rest.size() <= kMaxLine && fill()) continue;
-    if (!complete && rest.empty()) return false;
+    const bool complete = nl != std::string_view::npos;
+    // An incomplete line that may still fit: read more, then look again (fill() moves the bytes).
+    if (!complete && !from_memory_ && !eof_ && rest.size() <= max_line_) {
+      fill();
+      continue;
+    }
+    if (!complete && rest.empty()) {
+      if (!error_.empty()) {
+        diag.add({name_, line_ + 1, 0, "read error: " + error_ + "; the rest is lost"});
+        error_.clear();
+        failed_ = true;
+      }
+      return false;
+    }
     std::size_t len = complete ? nl : rest.size();
+    const std::size_t text_len = len > 0 && rest[len - 1] == '\r' ? len - 1 : len;
     ++line_;
-    if (len > kMaxLine) {
+    if (text_len > max_line_) {
       diag.add({name_, line_, 0,
-                "line longer than " + std::to_string(kMaxLine) + " characters: skipped"});
+                "line longer than " + std::to_string(max_line_) + " characters: skipped"});
       // Skip to the end of this line, however long.
       for (;;) {
-        if (from_memory_) {
-          rest = memory_.substr(begin_);
-        } else {
-          rest = std::string_view(buf_.data() + begin_, end_ - begin_);
-        }
+        rest = unread();
         const std::size_t at = rest.find('\n');
         if (at != std::string_view::npos) {
           begin_ += at + 1;
@@ -100,14 +119,16 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
         }
         begin_ += rest.size();
         consumed_ += rest.size();
-        if (from_memory_ || !fill()) break;
+        if (from_memory_ || eof_) break;
+        fill();
       }
       continue;
     }
-    line = rest.substr(0, len);
+    line = rest.substr(0, text_len);
     begin_ += complete ? len + 1 : len;
     consumed_ += complete ? len + 1 : len;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    // A UTF-8 byte-order mark (spreadsheet exports) is not part of the first line.
+    if (line_ == 1 && line.substr(0, 3) == "\xef\xbb\xbf") line.remove_prefix(3);
     return true;
   }
 }
@@ -182,11 +203,13 @@ std::string quoted(std::string_view s) {
 }
 
 // "# imucal: key=value key=value" -> settings.
-void parse_settings(std::string_view line, const LineReader& in, std::vector<FileSetting>& out) {
+// False if the comment is not a settings comment. With out == nullptr it only tells.
+bool parse_settings(std::string_view line, const LineReader& in, std::vector<FileSetting>* out) {
   std::string_view rest = line.substr(1);
   while (!rest.empty() && (rest.front() == ' ' || rest.front() == '\t')) rest.remove_prefix(1);
   constexpr std::string_view kTag = "imucal:";
-  if (rest.substr(0, kTag.size()) != kTag) return;
+  if (rest.substr(0, kTag.size()) != kTag) return false;
+  if (out == nullptr) return true;
   rest.remove_prefix(kTag.size());
   std::vector<Field> fields;
   split_fields(rest, fields);
@@ -197,8 +220,9 @@ void parse_settings(std::string_view line, const LineReader& in, std::vector<Fil
     s.value = eq == std::string_view::npos ? "" : std::string(f.text.substr(eq + 1));
     s.file = in.name();
     s.line = in.line_number();
-    out.push_back(std::move(s));
+    out->push_back(std::move(s));
   }
+  return true;
 }
 
 constexpr const char* kAxisNames[3] = {"x", "y", "z"};
@@ -220,7 +244,14 @@ bool SampleReader::content_line(LineReader& in, std::string_view& line, Diagnost
     while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
     if (i == line.size()) continue;
     if (line[i] == '#') {
-      parse_settings(line.substr(i), in, settings_);
+      if (!data_started_) {
+        parse_settings(line.substr(i), in, &settings_);
+      } else if (parse_settings(line.substr(i), in, nullptr)) {
+        report(in, static_cast<long>(i + 1),
+               "settings after the data started are ignored: put `# imucal:` lines before the "
+               "header (or the first sample)",
+               diag);
+      }
       continue;
     }
     return true;
@@ -236,17 +267,31 @@ bool SampleReader::open(const std::vector<std::string>& files, Format format, Di
               "files"});
     return false;
   }
+  if (files_ == 2 && files[0] == "-" && files[1] == "-") {
+    diag.add({"<stdin>", 0, 0, "stdin can be only one of the two imu_tk files"});
+    return false;
+  }
   for (int i = 0; i < files_; ++i)
     if (!in_[i].open(files[static_cast<std::size_t>(i)], diag)) return false;
   return start(format, diag);
 }
 
 bool SampleReader::open_memory(const std::vector<std::string_view>& texts, Format format,
-                               Diagnostics& diag) {
+                               Diagnostics& diag, std::size_t max_line) {
   files_ = static_cast<int>(std::min<std::size_t>(texts.size(), 2));
   if (files_ < 1) return false;
   for (int i = 0; i < files_; ++i)
-    in_[i].open_memory(texts[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>");
+    in_[i].open_memory(texts[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line);
+  return start(format, diag);
+}
+
+bool SampleReader::open_streams(const std::vector<std::FILE*>& files, Format format,
+                                Diagnostics& diag, std::size_t max_line, std::size_t block) {
+  files_ = static_cast<int>(std::min<std::size_t>(files.size(), 2));
+  if (files_ < 1) return false;
+  for (int i = 0; i < files_; ++i)
+    in_[i].open_stream(files[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line,
+                       block);
   return start(format, diag);
 }
 
@@ -277,6 +322,7 @@ bool SampleReader::start(Format format, Diagnostics& diag) {
     pending_[i] = std::string(line);
     has_pending_[i] = true;
   }
+  data_started_ = true;
   return true;
 }
 
@@ -339,6 +385,7 @@ bool SampleReader::read_header(Diagnostics& diag) {
   }
   for (std::size_t c = 0; c < fields_.size(); ++c)
     column_list_ += (c ? ", " : "") + std::string(fields_[c].text);
+  data_started_ = true;
   return true;
 }
 
@@ -482,9 +529,14 @@ bool SampleReader::next_imutk(Record& r, Diagnostics& diag) {
       }
       r.temp = kNaN;
       for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
+      ++matched_;
       return true;
     }
     const int early = t_[0] < t_[1] ? 0 : 1;
+    if (matched_ == 0 && unmatched_++ == 0) {
+      first_unmatched_[0] = t_[0];
+      first_unmatched_[1] = t_[1];
+    }
     char msg[200];
     std::snprintf(msg, sizeof msg, "no %s sample at time %.9g s (next there: %.9g s): line skipped",
                   early == 0 ? "gyroscope" : "accelerometer", t_[early], t_[1 - early]);
@@ -504,6 +556,15 @@ bool SampleReader::next_imutk(Record& r, Diagnostics& diag) {
               std::to_string(left) + " line(s) after the other file's last sample: skipped"});
     skipped_ += left;
   }
+  if (matched_ == 0 && unmatched_ > 0) {
+    char msg[240];
+    std::snprintf(msg, sizeof msg,
+                  "no timestamp of one file matches the other's (they start at %.9g s and "
+                  "%.9g s): imu_tk's two files must be sampled together, one line per sample",
+                  first_unmatched_[0], first_unmatched_[1]);
+    diag.add({in_[0].name(), 0, 0, msg});
+    unmatched_ = 0;
+  }
   return false;
 }
 
@@ -514,6 +575,12 @@ bool SampleReader::next(Record& r, Diagnostics& diag) {
     for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
   }
   return next_imutk(r, diag);
+}
+
+bool SampleReader::failed() const {
+  for (int i = 0; i < files_; ++i)
+    if (in_[i].failed()) return true;
+  return false;
 }
 
 double SampleReader::fraction_read() const {

@@ -56,30 +56,41 @@ class Diagnostics {
 };
 
 // Lines of a file or of stdin ("-"), read in blocks. A line longer than `max_line` characters is
-// reported and skipped; CR before LF is dropped; a last line without LF still counts.
+// reported and skipped; CR before LF is dropped; a last line without LF still counts; a UTF-8
+// byte-order mark before the first line is dropped. A read error is reported and ends the input.
 class LineReader {
  public:
+  static constexpr std::size_t kMaxLine = 1 << 16;
+  static constexpr std::size_t kBlock = 1 << 16;
+
   LineReader() = default;
   LineReader(const LineReader&) = delete;
   LineReader& operator=(const LineReader&) = delete;
   ~LineReader();
-  bool open(const std::string& path, Diagnostics& diag);  // false (reported) if unreadable
+  bool open(const std::string& path, Diagnostics& diag, std::size_t max_line = kMaxLine,
+            std::size_t block = kBlock);  // false (reported) if it cannot be opened
+  // An open stream (not closed here); small sizes let the fuzz target reach every boundary.
+  void open_stream(std::FILE* f, const std::string& name, std::size_t max_line = kMaxLine,
+                   std::size_t block = kBlock);
   // Reads from memory instead of a file (the fuzz target and the tests).
-  void open_memory(std::string_view text, const std::string& name);
+  void open_memory(std::string_view text, const std::string& name, std::size_t max_line = kMaxLine);
   bool next(std::string_view& line, Diagnostics& diag);
   long line_number() const { return line_; }
   const std::string& name() const { return name_; }
   std::uint64_t bytes_read() const { return consumed_; }
   std::uint64_t size() const { return size_; }  // 0 if unknown (a pipe)
-
-  static constexpr std::size_t kMaxLine = 1 << 16;
+  bool failed() const { return failed_; }       // a read error ended the input early
 
  private:
-  bool fill();
+  void fill();
+  std::string_view unread() const;
   std::FILE* file_ = nullptr;
   bool owns_ = false;
   bool eof_ = false;
+  bool failed_ = false;
+  std::string error_;
   std::string name_;
+  std::size_t max_line_ = kMaxLine;
   std::vector<char> buf_;
   std::size_t begin_ = 0, end_ = 0;
   std::string_view memory_;
@@ -111,7 +122,11 @@ class SampleReader {
   // False (reported) if nothing can be read: missing file, empty file, no usable header.
   bool open(const std::vector<std::string>& files, Format format, Diagnostics& diag);
   // For the fuzz target and the tests: CSV text or two imu_tk texts.
-  bool open_memory(const std::vector<std::string_view>& texts, Format format, Diagnostics& diag);
+  bool open_memory(const std::vector<std::string_view>& texts, Format format, Diagnostics& diag,
+                   std::size_t max_line = LineReader::kMaxLine);
+  // Open streams, not closed here (the fuzz target: small buffers reach every boundary).
+  bool open_streams(const std::vector<std::FILE*>& files, Format format, Diagnostics& diag,
+                    std::size_t max_line, std::size_t block);
   // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
   void set_time_unit(TimeUnit time);
   // The next good sample; bad lines on the way are reported and skipped. False at the end.
@@ -121,6 +136,7 @@ class SampleReader {
   bool has_temperature() const { return col_temp_ >= 0; }
   bool has_magnetometer() const { return col_mag_[0] >= 0; }
   long lines_skipped() const { return skipped_; }
+  bool failed() const;  // a read error ended an input early (reported)
   const std::vector<FileSetting>& file_settings() const { return settings_; }
   // Progress over all files: bytes read / bytes in total (0 if unknown).
   double fraction_read() const;
@@ -152,6 +168,9 @@ class SampleReader {
   bool have_[2] = {false, false};
   double t_[2] = {0, 0}, v_[2][3] = {};
   long vline_[2] = {0, 0};
+  long matched_ = 0, unmatched_ = 0;
+  double first_unmatched_[2] = {0, 0};
+  bool data_started_ = false;
   bool have_last_ = false;
   double last_t_ = 0;
   long skipped_ = 0;

@@ -320,8 +320,18 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     return false;
   }
   const Json truth = Json::parse(in, nullptr, false);
-  if (truth.is_discarded() || !truth.contains("accelerometer") || !truth.contains("gyroscope")) {
-    std::fprintf(stderr, "imucal: %s is not a truth file of `imucal simulate`\n",
+  auto parameters = [&](const char* sensor) -> const Json* {
+    if (!truth.is_object() || !truth.contains(sensor) || !truth[sensor].is_object() ||
+        !truth[sensor].contains("parameters") || !truth[sensor]["parameters"].is_object())
+      return nullptr;
+    return &truth[sensor]["parameters"];
+  };
+  const Json* ta = parameters("accelerometer");
+  const Json* tg = parameters("gyroscope");
+  if (ta == nullptr || tg == nullptr) {
+    std::fprintf(stderr,
+                 "imucal: %s is not a truth file of `imucal simulate` (expected "
+                 "accelerometer.parameters and gyroscope.parameters)\n",
                  truth_path.c_str());
     return false;
   }
@@ -335,17 +345,17 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     double worst = 0;
     std::fprintf(out, "  %s:", what);
     for (int k = 0; k < n; ++k) {
-      if (!t.contains(names[k])) continue;
+      if (!t.contains(names[k]) || !t[names[k]].is_number()) continue;
       const double z = (p[k] - t[names[k]].get<double>()) / sd[k];
       worst = std::max(worst, std::abs(z));
       std::fprintf(out, " %s %+.2f", names[k], z);
     }
     std::fprintf(out, "\n  %s: worst %.2f sigma\n", what, worst);
   };
-  table("accelerometer", truth["accelerometer"]["parameters"], kAccelNames, run.accel_params.data(),
-        run.accel_sigma.data(), 9, run.accel_ok);
-  table("gyroscope", truth["gyroscope"]["parameters"], kGyroNames, run.gyro_params.data(),
-        run.gyro_sigma.data(), 12, run.gyro_ok);
+  table("accelerometer", *ta, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9,
+        run.accel_ok);
+  table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
+        run.gyro_ok);
   return true;
 }
 
