@@ -198,6 +198,7 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   run.gyro_iterations = c.gyro.iterations;
   run.gyro_bias_refined = c.gyro.bias_refined;
   run.quality = quality_name(c.quality);
+  run.quality_level = static_cast<int>(c.quality);
   run.usable = run.accel_ok && run.gyro_ok;
   for (int k = 0; k < 9; ++k) {
     run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));

@@ -389,18 +389,33 @@ bool SampleReader::read_header(Diagnostics& diag) {
   return true;
 }
 
-bool SampleReader::time_in_order(double t, const LineReader& in, long column, Diagnostics& diag) {
-  if (have_last_ && !(t > last_t_)) {
-    char msg[160];
-    std::snprintf(msg, sizeof msg,
-                  "time %.9g s is not after the previous sample's %.9g s: line skipped", t,
-                  last_t_);
-    report(in, column, msg, diag);
+// A field that must be a finite number; reported (with its column) and false otherwise.
+bool SampleReader::number_field(const LineReader& in, const Field& f, const char* name, double& out,
+                                Diagnostics& diag) {
+  if (!parse_number(f.text, out)) {
+    report(in, static_cast<long>(f.offset + 1),
+           std::string("expected a number for ") + name + ", found " + quoted(f.text) +
+               ": line skipped",
+           diag);
     return false;
   }
-  have_last_ = true;
-  last_t_ = t;
+  if (!std::isfinite(out)) {
+    report(in, static_cast<long>(f.offset + 1),
+           std::string(name) + " is not finite (" + std::string(f.text) + "): line skipped", diag);
+    return false;
+  }
   return true;
+}
+
+// Time must increase: t after `previous` (if there is one), else reported.
+bool SampleReader::after_previous(double t, bool have, double previous, const LineReader& in,
+                                  long column, Diagnostics& diag) {
+  if (!have || t > previous) return true;
+  char msg[160];
+  std::snprintf(msg, sizeof msg,
+                "time %.9g s is not after the previous sample's %.9g s: line skipped", t, previous);
+  report(in, column, msg, diag);
+  return false;
 }
 
 bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
@@ -418,22 +433,8 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
     }
     bool ok = true;
     auto get = [&](int col, const char* name, double& out) {
-      if (!ok || col < 0) return;
-      const Field& f = fields_[static_cast<std::size_t>(col)];
-      double v = 0;
-      if (!parse_number(f.text, v)) {
-        report(in, static_cast<long>(f.offset + 1),
-               std::string("expected a number for ") + name + ", found " + quoted(f.text) +
-                   ": line skipped",
-               diag);
-        ok = false;
-      } else if (!std::isfinite(v)) {
-        report(in, static_cast<long>(f.offset + 1),
-               std::string(name) + " is not finite (" + std::string(f.text) + "): line skipped",
-               diag);
-        ok = false;
-      }
-      out = v;
+      if (ok && col >= 0)
+        ok = number_field(in, fields_[static_cast<std::size_t>(col)], name, out, diag);
     };
     static constexpr const char* kAcc[3] = {"ax", "ay", "az"};
     static constexpr const char* kGyro[3] = {"gx", "gy", "gz"};
@@ -449,11 +450,14 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
       get(col_mag_[a], kMag[a], r.mag[a]);
     }
     r.t = t * time_scale_;
-    if (ok &&
-        !time_in_order(
-            r.t, in, static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1), diag))
-      ok = false;
-    if (ok) return true;
+    ok = ok && after_previous(
+                   r.t, have_last_, last_t_, in,
+                   static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1), diag);
+    if (ok) {
+      have_last_ = true;
+      last_t_ = r.t;
+      return true;
+    }
     ++skipped_;
   }
   return false;
@@ -482,28 +486,9 @@ bool SampleReader::next_txyz(int which, double& t, double v[3], long& line_no, D
     double x[4];
     bool ok = true;
     static constexpr const char* kNames[4] = {"t", "x", "y", "z"};
-    for (int k = 0; k < 4 && ok; ++k) {
-      const Field& f = fields_[static_cast<std::size_t>(k)];
-      if (!parse_number(f.text, x[k])) {
-        report(in, static_cast<long>(f.offset + 1),
-               std::string("expected a number for ") + kNames[k] + ", found " + quoted(f.text) +
-                   ": line skipped",
-               diag);
-        ok = false;
-      } else if (!std::isfinite(x[k])) {
-        report(in, static_cast<long>(f.offset + 1),
-               std::string(kNames[k]) + " is not finite: line skipped", diag);
-        ok = false;
-      }
-    }
-    if (ok && have_[which] && !(x[0] * time_scale_ > t_[which])) {
-      char msg[160];
-      std::snprintf(msg, sizeof msg,
-                    "time %.9g s is not after the previous line's %.9g s: line skipped",
-                    x[0] * time_scale_, t_[which]);
-      report(in, 1, msg, diag);
-      ok = false;
-    }
+    for (int k = 0; k < 4 && ok; ++k)
+      ok = number_field(in, fields_[static_cast<std::size_t>(k)], kNames[k], x[k], diag);
+    ok = ok && after_previous(x[0] * time_scale_, have_[which], t_[which], in, 1, diag);
     if (!ok) {
       ++skipped_;
       continue;

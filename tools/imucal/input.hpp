@@ -148,7 +148,10 @@ class SampleReader {
   bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
   bool next_imutk(Record& r, Diagnostics& diag);
   bool content_line(LineReader& in, std::string_view& line, Diagnostics& diag);
-  bool time_in_order(double t, const LineReader& in, long column, Diagnostics& diag);
+  bool number_field(const LineReader& in, const Field& f, const char* name, double& out,
+                    Diagnostics& diag);
+  bool after_previous(double t, bool have, double previous, const LineReader& in, long column,
+                      Diagnostics& diag);
   void report(const LineReader& in, long column, std::string message, Diagnostics& diag);
 
   LineReader in_[2];

@@ -8,6 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "imucal/accel_model.hpp"
+#include "imucal/gyro_model.hpp"
+
 namespace imucal::cli {
 
 const char* const kAccelModel =
@@ -21,10 +24,6 @@ const char* const kConvention =
     "offset = -b); s converts raw units to m/s^2 (accelerometer) or rad/s (gyroscope); "
     "misalignments in rad";
 
-namespace {
-
-using Json = nlohmann::ordered_json;
-
 const char* accel_unit_name(AccelUnit u) {
   return u == AccelUnit::kCounts ? "counts" : u == AccelUnit::kG ? "g" : "m/s^2";
 }
@@ -34,6 +33,10 @@ const char* gyro_unit_name(GyroUnit u) {
 const char* time_unit_name(TimeUnit u) {
   return u == TimeUnit::kSeconds ? "s" : u == TimeUnit::kMilliseconds ? "ms" : "us";
 }
+
+namespace {
+
+using Json = nlohmann::ordered_json;
 
 // NaN and infinity become JSON null.
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
@@ -254,21 +257,15 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
     return s;
   };
   // M = T K, row-major.
-  auto accel_matrix = [&]() {
-    const auto& p = run.accel_params;
-    const double t[3][3] = {{1, -p[0], p[1]}, {0, 1, -p[2]}, {0, 0, 1}};
-    std::array<double, 9> m{};
+  // M = T K from the library's own model (row-major for the C initialiser).
+  const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
+  const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
+  auto row_major = [](const Matrix3<double>& m) {
+    std::array<double, 9> a{};
     for (std::size_t r = 0; r < 3; ++r)
-      for (std::size_t c = 0; c < 3; ++c) m[3 * r + c] = t[r][c] * p[3 + c];
-    return m;
-  };
-  auto gyro_matrix = [&]() {
-    const auto& p = run.gyro_params;
-    const double t[3][3] = {{1, -p[0], p[1]}, {p[3], 1, -p[2]}, {-p[4], p[5], 1}};
-    std::array<double, 9> m{};
-    for (std::size_t r = 0; r < 3; ++r)
-      for (std::size_t c = 0; c < 3; ++c) m[3 * r + c] = t[r][c] * p[6 + c];
-    return m;
+      for (std::size_t c = 0; c < 3; ++c)
+        a[3 * r + c] = m(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
+    return a;
   };
   auto rows = [&](const std::array<double, 9>& m) {
     return "{{" + values(m, 0, 3) + "}, {" + values(m, 3, 3) + "}, {" + values(m, 6, 3) + "}}";
@@ -291,9 +288,10 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
     << " * The parameters and their one-sigma uncertainties follow in the model's order.\n"
     << " */\n"
     << "#ifndef IMUCAL_CALIBRATION_H\n#define IMUCAL_CALIBRATION_H\n\n";
-  h << "static const float IMUCAL_ACCEL_M[3][3] = " << rows(accel_matrix()) << ";\n";
+  h << "static const float IMUCAL_ACCEL_M[3][3] = " << rows(row_major(accel_matrix(pa))) << ";\n";
   h << "static const float IMUCAL_ACCEL_B[3] = {" << values(run.accel_params, 6, 3) << "};\n";
-  h << "static const float IMUCAL_GYRO_M[3][3] = " << rows(gyro_matrix()) << ";\n";
+  h << "static const float IMUCAL_GYRO_M[3][3] = " << rows(row_major(gyro_matrix<double>(pg)))
+    << ";\n";
   h << "static const float IMUCAL_GYRO_B[3] = {" << values(run.gyro_params, 9, 3) << "};\n\n";
   h << "/* alpha_yz, alpha_zy, alpha_zx, s_x, s_y, s_z, b_x, b_y, b_z */\n";
   h << "static const float IMUCAL_ACCEL_PARAMS[9] = {" << values(run.accel_params, 0, 9) << "};\n";
@@ -304,11 +302,7 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
   h << "static const float IMUCAL_GYRO_SIGMA[12] = {" << values(run.gyro_sigma, 0, 12) << "};\n";
   std::snprintf(buf, sizeof buf, "%.9g", o.gravity);
   h << "\n#define IMUCAL_GRAVITY " << buf << "f /* m/s^2, the calibrated norm */\n";
-  const int q = run.quality == "good"   ? 3
-                : run.quality == "fair" ? 2
-                : run.quality == "poor" ? 1
-                                        : 0;
-  h << "#define IMUCAL_QUALITY " << q << " /* 0 none, 1 poor, 2 fair, 3 good */\n";
+  h << "#define IMUCAL_QUALITY " << run.quality_level << " /* 0 none, 1 poor, 2 fair, 3 good */\n";
   h << "\n#endif /* IMUCAL_CALIBRATION_H */\n";
   return write_text_file(path, h.str());
 }

@@ -16,6 +16,7 @@
 #include <string_view>
 #include <vector>
 
+#include "imucal/accel_model.hpp"
 #include "run.hpp"
 
 namespace imucal::cli {
@@ -561,28 +562,17 @@ double gap_threshold(const std::vector<Sample>& samples, const TimeAxis& t) {
 
 // --- The accelerometer model -----------------------------------------------------------------
 
-// a_cal = T K (a_raw + b), T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]], K = diag(s).
+// The library's a_cal = T K (a_raw + b), with M = T K computed once (it runs per sample).
 struct AccelModel {
-  double m[3][3] = {};
-  double b[3] = {};
+  Matrix3<double> m;
+  Vector3<double> b;
   explicit AccelModel(const std::array<double, 9>& p) {
-    const double sx = p[3], sy = p[4], sz = p[5];
-    m[0][0] = sx;
-    m[0][1] = -p[0] * sy;
-    m[0][2] = p[1] * sz;
-    m[1][1] = sy;
-    m[1][2] = -p[2] * sz;
-    m[2][2] = sz;
-    for (int k = 0; k < 3; ++k) b[k] = p[static_cast<std::size_t>(6 + k)];
+    const AccelVector<double> v = Eigen::Map<const AccelVector<double>>(p.data());
+    m = accel_matrix(v);
+    b = v.tail<3>();
   }
   double norm(const double raw[3]) const {
-    const double u[3] = {raw[0] + b[0], raw[1] + b[1], raw[2] + b[2]};
-    double sum = 0;
-    for (const auto& row : m) {
-      const double c = row[0] * u[0] + row[1] * u[1] + row[2] * u[2];
-      sum += c * c;
-    }
-    return std::sqrt(sum);
+    return (m * (Vector3<double>(raw[0], raw[1], raw[2]) + b)).norm();
   }
 };
 
@@ -598,30 +588,6 @@ bool usable_params(const std::array<double, 9>& p) {
 double gravity(const Options& options) {
   const double g = options.gravity;
   return g > 0.1 * kStandardGravity && g < 10 * kStandardGravity ? g : kStandardGravity;
-}
-
-std::string accel_unit_text(AccelUnit u) {
-  switch (u) {
-    case AccelUnit::kCounts:
-      return "counts";
-    case AccelUnit::kG:
-      return "g";
-    case AccelUnit::kMps2:
-      return "m/s\u00b2";
-  }
-  return "";
-}
-
-std::string gyro_unit_text(GyroUnit u) {
-  switch (u) {
-    case GyroUnit::kCounts:
-      return "counts";
-    case GyroUnit::kDps:
-      return "\u00b0/s";
-    case GyroUnit::kRads:
-      return "rad/s";
-  }
-  return "";
 }
 
 const char* quality_colour(const std::string& q) {
@@ -1134,13 +1100,13 @@ std::string report_svg(const Run& run, const Options& options, const std::vector
   const TimeAxis t = time_axis(run, samples);
   double y = title_block(page, run, options) + 14;
 
-  y = signal_section(
-      page, y, 190, run, samples, t, false,
-      "Accelerometer, raw (" + accel_unit_text(options.accel_unit) + "), rests shaded and numbered",
-      accel_unit_text(options.accel_unit), true, false);
+  y = signal_section(page, y, 190, run, samples, t, false,
+                     "Accelerometer, raw (" + std::string(accel_unit_name(options.accel_unit)) +
+                         "), rests shaded and numbered",
+                     std::string(accel_unit_name(options.accel_unit)), true, false);
   y = signal_section(page, y, 160, run, samples, t, true,
-                     "Gyroscope, raw (" + gyro_unit_text(options.gyro_unit) + ")",
-                     gyro_unit_text(options.gyro_unit), false, true);
+                     "Gyroscope, raw (" + std::string(gyro_unit_name(options.gyro_unit)) + ")",
+                     std::string(gyro_unit_name(options.gyro_unit)), false, true);
   y = norm_section(page, y, run, options, samples, t);
 
   Bars poses;

@@ -102,12 +102,17 @@ struct Run {
   std::array<double, 12> gyro_nominal{};  // T = I, s from the units, b from the initial rest
   double gyro_rms_before = kNaN, gyro_rms_after = kNaN;  // deg per move
   std::string quality;                                   // none, poor, fair, good
-  bool usable = false;  // both sensors calibrated (quality fair or good)
+  int quality_level = 0;  // the same as a number: 0 none, 1 poor, 2 fair, 3 good
+  bool usable = false;    // both sensors calibrated (quality fair or good)
   std::vector<PoseResult> pose_list;
   std::vector<MoveResult> move_list;
 };
 
 extern const char* const kAccelNames[9];
+// Unit names, said once for the summary, the JSON, the header and the page.
+const char* accel_unit_name(AccelUnit u);
+const char* gyro_unit_name(GyroUnit u);
+const char* time_unit_name(TimeUnit u);
 extern const char* const kGyroNames[12];
 
 // The SVG report page: the signal over time with the rests shaded, |a| before and after, the
