@@ -42,8 +42,12 @@ const char* to_string(Status s) {
       return "fitted quadric is not an ellipsoid";
     case Status::kUnobservable:
       return "a parameter is not observable from these poses";
-    case Status::kTimeNotIncreasing:
-      return "timestamp not increasing (sample refused)";
+    case Status::kTimeRepeated:
+      return "timestamp repeated (sample refused)";
+    case Status::kTimeBackwards:
+      return "timestamp went backwards (sample refused)";
+    case Status::kClockReset:
+      return "clock reset (the stream restarts as after a gap)";
     case Status::kTimestampGap:
       return "gap in the timestamps (the move across it is dropped)";
     case Status::kSensorFrozen:
@@ -58,6 +62,28 @@ const char* to_string(Status s) {
       return "too few usable moves between poses";
     case Status::kBusy:
       return "busy solving (sample not taken)";
+    case Status::kSaturated:
+      return "reading at full scale (saturated)";
+    case Status::kSampleRateOff:
+      return "sample rate far from nominal";
+    case Status::kRecordTruncated:
+      return "record truncated";
+    case Status::kRecordBadMagic:
+      return "not a calibration record (bad magic)";
+    case Status::kRecordBadVersion:
+      return "unknown record format version";
+    case Status::kRecordBadLength:
+      return "record length or section length invalid";
+    case Status::kRecordBadChecksum:
+      return "record corrupted (CRC-32 mismatch)";
+    case Status::kRecordBadField:
+      return "record field out of range";
+    case Status::kNoRecord:
+      return "no valid record stored";
+    case Status::kStorageError:
+      return "flash storage error";
+    case Status::kStorageVerifyFailed:
+      return "flash verify failed (read back differs)";
   }
   return "unknown status";
 }

@@ -30,7 +30,9 @@ enum class Status : std::uint8_t {
   kNotAnEllipsoid,  // the closed-form fit found a quadric that is not an ellipsoid
   kUnobservable,    // solved, but a parameter's sigma is too large to call it calibrated
   // The sample stream (streaming calibrator).
-  kTimeNotIncreasing,     // a timestamp not after the previous one: the sample is refused
+  kTimeRepeated,          // the same timestamp as the previous sample: the sample is refused
+  kTimeBackwards,         // a timestamp before the previous one: the sample is refused
+  kClockReset,            // the clock went back and stayed back: taken, handled as a gap
   kTimestampGap,          // samples missing: the move across the gap is dropped, poses are kept
   kSensorFrozen,          // a sensor repeats the same reading: samples refused until it recovers
   kInitialRestDisturbed,  // the unit moved during the initial rest: it starts again
@@ -38,6 +40,18 @@ enum class Status : std::uint8_t {
   kEndedInMotion,         // the stream stopped during a move: that move is not used
   kTooFewMoves,           // fewer usable moves between poses than the gyro model needs
   kBusy,                  // the calibrator is solving: samples are not taken meanwhile
+  kSaturated,             // a reading at the configured full scale (see CalibratorSettings)
+  kSampleRateOff,         // the measured sample rate is far from the nominal one (taken)
+  // Stored calibration records (record.hpp) and the flash they live in (record_store.hpp).
+  kRecordTruncated,      // fewer bytes than the record's length field says
+  kRecordBadMagic,       // not a calibration record (or erased flash)
+  kRecordBadVersion,     // a format version this decoder does not know (0, or newer)
+  kRecordBadLength,      // the length field or a section length is impossible
+  kRecordBadChecksum,    // CRC-32 mismatch: the bytes were corrupted
+  kRecordBadField,       // checksum right, but a field is out of its range (see error offset)
+  kNoRecord,             // no valid record in the store (empty, erased or both slots corrupt)
+  kStorageError,         // the flash port failed (read, program, erase, or power lost)
+  kStorageVerifyFailed,  // the record read back differs from the one written
 };
 
 // True for the statuses that mean "this estimate is usable".

@@ -1,0 +1,331 @@
+// The calibration record: round trip, the pinned version-1 bytes, every single-byte corruption
+// and every truncation detected, each field validated, and records of a grown format decoding.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+
+#include "imucal/record.hpp"
+#include "support/gtest_status.hpp"
+
+namespace imucal {
+namespace {
+
+// A calibration as the xsens recording gives (raw 16-bit counts), with sigmas.
+Calibration<double> example_calibration() {
+  Calibration<double> c;
+  c.accel.params << 0.0021, -0.0013, 0.0007, 0.00241, 0.00239, 0.00243, -32990.0, -32770.5,
+      -33120.25;
+  for (int i = 0; i < kAccelParams; ++i) c.accel.sigma(i) = 1e-5 * (i + 1);
+  c.accel.residual_rms = 0.0011;
+  c.accel.poses = 41;
+  c.accel.iterations = 5;
+  c.accel.status = Status::kConvergedCost;
+  c.gyro.params << 0.003, -0.002, 0.001, -0.004, 0.0025, -0.0015, 2.1e-4, 2.09e-4, 2.11e-4,
+      -32750.0, -32800.5, -32690.0;
+  for (int i = 0; i < kGyroParams; ++i) c.gyro.sigma(i) = 2e-5 * (i + 1);
+  c.gyro.residual_rms = 0.0085;
+  c.gyro.moves = 40;
+  c.gyro.iterations = 7;
+  c.gyro.status = Status::kConvergedStep;
+  c.quality = Quality::kFair;
+  c.sample_rate_hz = 100.0;
+  c.has_temperature = true;
+  c.temperature_c = 24.5;
+  return c;
+}
+
+CalibrationRecord example_record() {
+  CalibrationRecord r;
+  EXPECT_EQ(make_record(example_calibration(), 0x12345678u, 0x00006A68u, r), Status::kOk);
+  return r;
+}
+
+struct Encoded {
+  std::uint8_t bytes[kRecordMaxBytes] = {};
+  std::size_t size = 0;
+};
+
+Encoded encode(const CalibrationRecord& r) {
+  Encoded e;
+  EXPECT_EQ(encode_record(r, e.bytes, sizeof e.bytes, &e.size), Status::kOk);
+  return e;
+}
+
+void store_u32(std::uint8_t* p, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+// Makes the CRC right again after a deliberate edit (to reach the field checks).
+void reseal(Encoded& e) { store_u32(e.bytes + e.size - 4, crc32(e.bytes, e.size - 4)); }
+
+void expect_same(const CalibrationRecord& a, const CalibrationRecord& b) {
+  EXPECT_EQ(a.device_id, b.device_id);
+  EXPECT_EQ(a.sensor_id, b.sensor_id);
+  EXPECT_EQ(a.parts, b.parts);
+  const Calibration<float>&x = a.calibration, &y = b.calibration;
+  EXPECT_EQ(x.quality, y.quality);
+  EXPECT_EQ(x.has_temperature, y.has_temperature);
+  EXPECT_EQ(x.temperature_c, y.temperature_c);
+  EXPECT_EQ(x.sample_rate_hz, y.sample_rate_hz);
+  if (a.parts & kRecordAccel) {
+    EXPECT_EQ(x.accel.params, y.accel.params);
+    EXPECT_EQ(x.accel.sigma, y.accel.sigma);
+    EXPECT_EQ(x.accel.residual_rms, y.accel.residual_rms);
+    EXPECT_EQ(x.accel.poses, y.accel.poses);
+  }
+  if (a.parts & kRecordGyro) {
+    EXPECT_EQ(x.gyro.params, y.gyro.params);
+    EXPECT_EQ(x.gyro.sigma, y.gyro.sigma);
+    EXPECT_EQ(x.gyro.residual_rms, y.gyro.residual_rms);
+    EXPECT_EQ(x.gyro.moves, y.gyro.moves);
+    EXPECT_EQ(x.gyro.bias_refined, y.gyro.bias_refined);
+  }
+}
+
+TEST(Crc32, MatchesTheStandardCheckValue) {
+  const char* check = "123456789";
+  const auto* p = reinterpret_cast<const std::uint8_t*>(check);
+  EXPECT_EQ(crc32(p, 9), 0xCBF43926u);  // the catalogue's check value for CRC-32/ISO-HDLC
+  EXPECT_EQ(crc32(p + 4, 5, crc32(p, 4)), 0xCBF43926u);  // continued
+  EXPECT_EQ(crc32(p, 0), 0u);
+}
+
+TEST(Record, RoundTripKeepsEveryField) {
+  const CalibrationRecord r = example_record();
+  EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro);
+  const Encoded e = encode(r);
+  EXPECT_EQ(e.size, 232u);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(e.bytes, e.size, back), Status::kOk);
+  expect_same(r, back);
+  EXPECT_EQ(back.version, 1);
+  EXPECT_EQ(back.unknown_sections, 0);
+  EXPECT_EQ(back.calibration.accel.status, Status::kOk);
+  // The values are the double calibration's, rounded once to float.
+  const Calibration<double> c = example_calibration();
+  for (int i = 0; i < kAccelParams; ++i)
+    EXPECT_EQ(back.calibration.accel.params(i), static_cast<float>(c.accel.params(i)));
+  // Bytes after the record (the rest of a flash slot) are ignored.
+  Encoded longer = e;
+  std::memset(longer.bytes + e.size, 0xFF, sizeof longer.bytes - e.size);
+  EXPECT_EQ(decode_record(longer.bytes, sizeof longer.bytes, back), Status::kOk);
+}
+
+TEST(Record, OnePartOnly) {
+  Calibration<double> c = example_calibration();
+  c.gyro.status = Status::kTooFewMoves;  // the accelerometer alone is still worth keeping
+  c.has_temperature = false;
+  CalibrationRecord r;
+  ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk);
+  EXPECT_EQ(r.parts, kRecordAccel);
+  const Encoded e = encode(r);
+  EXPECT_EQ(e.size, 232u - 108u);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(e.bytes, e.size, back), Status::kOk);
+  expect_same(r, back);
+  EXPECT_EQ(back.calibration.gyro.status, Status::kNotStarted);
+  EXPECT_FALSE(back.calibration.has_temperature);
+  // Nothing usable: no record.
+  c.accel.status = Status::kPosesCoplanar;
+  EXPECT_EQ(make_record(c, 1, 2, r), Status::kInvalidArgument);
+}
+
+// Version 1 as first written (2026-11-22). These bytes must decode to these values for as long
+// as the format exists: change the encoder and this test says which old records would break.
+constexpr std::uint8_t kVersion1[] = {
+#include "support/record_v1_bytes.inc"
+};
+
+TEST(Record, Version1BytesStayReadable) {
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(kVersion1, sizeof kVersion1, back), Status::kOk);
+  expect_same(example_record(), back);
+  // And today's encoder still writes exactly them.
+  const Encoded e = encode(example_record());
+  ASSERT_EQ(e.size, sizeof kVersion1);
+  EXPECT_EQ(std::memcmp(e.bytes, kVersion1, e.size), 0);
+}
+
+TEST(Record, EverySingleByteCorruptionIsDetected) {
+  const Encoded e = encode(example_record());
+  int cases = 0;
+  for (std::size_t at = 0; at < e.size; ++at) {
+    for (int v = 0; v < 256; ++v) {
+      if (v == e.bytes[at]) continue;
+      Encoded bad = e;
+      bad.bytes[at] = static_cast<std::uint8_t>(v);
+      CalibrationRecord out;
+      out.device_id = 777;
+      std::size_t where = 9999;
+      const Status s = decode_record(bad.bytes, bad.size, out, &where);
+      ++cases;
+      if (s == Status::kOk) {
+        ADD_FAILURE() << "byte " << at << " = " << v << " accepted";
+        return;
+      }
+      EXPECT_EQ(out.device_id, 777u);  // the output is untouched on failure
+      EXPECT_LE(where, e.size);
+    }
+  }
+  EXPECT_EQ(cases, static_cast<int>(e.size) * 255);
+}
+
+TEST(Record, EveryTruncationIsDetected) {
+  const Encoded e = encode(example_record());
+  for (std::size_t n = 0; n < e.size; ++n) {
+    CalibrationRecord out;
+    std::size_t where = 9999;
+    EXPECT_EQ(decode_record(e.bytes, n, out, &where), Status::kRecordTruncated) << n;
+    EXPECT_EQ(where, n);
+  }
+  // A length field pointing beyond the bytes given is a truncation too, not a checksum error.
+}
+
+TEST(Record, HeaderErrorsSayWhatIsWrong) {
+  const Encoded e = encode(example_record());
+  CalibrationRecord out;
+  std::size_t where = 0;
+  Encoded bad = e;
+  bad.bytes[2] = 'X';
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadMagic);
+  EXPECT_EQ(where, 2u);
+  std::uint8_t erased[kRecordMaxBytes];
+  std::memset(erased, 0xFF, sizeof erased);
+  EXPECT_EQ(decode_record(erased, sizeof erased, out), Status::kRecordBadMagic);
+  bad = e;
+  bad.bytes[4] = 2;  // a newer format
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadVersion);
+  EXPECT_EQ(where, 4u);
+  bad.bytes[4] = 0;
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out), Status::kRecordBadVersion);
+  bad = e;
+  bad.bytes[6] = 10;  // shorter than any record
+  bad.bytes[7] = 0;
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadLength);
+  EXPECT_EQ(where, 6u);
+  bad = e;
+  bad.bytes[100] ^= 0x01;
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadChecksum);
+  EXPECT_EQ(where, e.size - 4);
+  EXPECT_EQ(decode_record(nullptr, 10, out), Status::kInvalidArgument);
+}
+
+// Offsets of version 1 (record.hpp): header 20, info section at 20 (payload 24), accelerometer
+// section at 36 (payload 40), gyro section at 120 (payload 124).
+struct FieldCase {
+  const char* what;
+  std::size_t at;
+  std::uint32_t value;  // written little-endian over `bytes` bytes
+  int bytes;
+  Status expected;
+};
+
+TEST(Record, EveryFieldIsValidatedEvenWithARightChecksum) {
+  const Encoded e = encode(example_record());
+  const std::uint32_t nan = 0x7FC00000u, inf = 0x7F800000u, minus_one = 0xBF800000u;
+  const FieldCase cases[] = {
+      {"reserved header byte", 5, 1, 1, Status::kRecordBadField},
+      {"reserved header word", 18, 1, 2, Status::kRecordBadField},
+      {"section tag 0", 20, 0, 1, Status::kRecordBadField},
+      {"section reserved byte", 21, 3, 1, Status::kRecordBadField},
+      {"quality 4", 24, 4, 1, Status::kRecordBadField},
+      {"unknown info flag", 25, 3, 1, Status::kRecordBadField},
+      {"info reserved", 26, 1, 2, Status::kRecordBadField},
+      {"temperature NaN", 28, nan, 4, Status::kRecordBadField},
+      {"temperature 1000", 28, 0x447A0000u, 4, Status::kRecordBadField},
+      {"sample rate negative", 32, minus_one, 4, Status::kRecordBadField},
+      {"sample rate infinite", 32, inf, 4, Status::kRecordBadField},
+      {"accel poses 3", 40, 3, 2, Status::kRecordBadField},
+      {"accel reserved", 42, 1, 2, Status::kRecordBadField},
+      {"accel misalignment NaN", 44, nan, 4, Status::kRecordBadField},
+      {"accel scale negative", 44 + 4 * kScaleY, minus_one, 4, Status::kRecordBadField},
+      {"accel scale zero", 44 + 4 * kScaleZ, 0, 4, Status::kRecordBadField},
+      {"accel bias infinite", 44 + 4 * kBiasX, inf, 4, Status::kRecordBadField},
+      {"accel sigma negative", 80 + 4 * 2, minus_one, 4, Status::kRecordBadField},
+      {"accel residual NaN", 116, nan, 4, Status::kRecordBadField},
+      {"gyro moves 0", 124, 0, 2, Status::kRecordBadField},
+      {"gyro unknown flag", 126, 2, 1, Status::kRecordBadField},
+      {"gyro reserved", 127, 1, 1, Status::kRecordBadField},
+      {"gyro scale zero", 128 + 4 * kGyroScaleX, 0, 4, Status::kRecordBadField},
+      {"gyro sigma NaN", 176 + 4 * 11, nan, 4, Status::kRecordBadField},
+      {"gyro residual negative", 224, minus_one, 4, Status::kRecordBadField},
+      {"section longer than the record", 22, 205, 2, Status::kRecordBadLength},
+      {"accel section too short", 38, 40, 2, Status::kRecordBadLength},
+      {"gyro part bit cleared", 16, kRecordAccel, 2, Status::kRecordBadField},
+      {"accel part bit cleared", 16, kRecordGyro, 2, Status::kRecordBadField},
+      {"duplicate accel section", 120, 2, 1, Status::kRecordBadField},
+      {"gyro tag on the accel payload", 36, 3, 1, Status::kRecordBadLength},
+  };
+  for (const FieldCase& c : cases) {
+    Encoded bad = e;
+    for (int i = 0; i < c.bytes; ++i)
+      bad.bytes[c.at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(c.value >> (8 * i));
+    reseal(bad);
+    CalibrationRecord out;
+    std::size_t where = 9999;
+    EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), c.expected) << c.what;
+    if (c.expected == Status::kRecordBadField && c.at >= 24 && c.at != 120) {
+      EXPECT_EQ(where, c.at) << c.what;
+    }
+  }
+}
+
+TEST(Record, EncodeRefusesWhatDecodeWouldRefuse) {
+  std::uint8_t buf[kRecordMaxBytes];
+  std::size_t n = 0;
+  CalibrationRecord r = example_record();
+  r.calibration.accel.params(kScaleX) = -1.0f;
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
+  r = example_record();
+  r.calibration.gyro.sigma(3) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
+  r = example_record();
+  r.parts = 0x0004;  // a part this version cannot write
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
+  r = example_record();
+  r.calibration.has_temperature = false;  // then the temperature must be 0, as decode expects
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
+  r = example_record();
+  EXPECT_EQ(encode_record(r, buf, 231, &n), Status::kCapacityExceeded);
+  EXPECT_EQ(encode_record(r, buf, 232, &n), Status::kOk);
+  // A double calibration whose values overflow float cannot be recorded.
+  Calibration<double> c = example_calibration();
+  c.gyro.params(kGyroBiasX) = 1e300;
+  EXPECT_EQ(make_record(c, 0, 0, r), Status::kInvalidArgument);
+}
+
+// A record from a newer writer: an extra section (tag 9) and an accelerometer section with
+// fields appended. Today's decoder reads what it knows and skips the rest.
+TEST(Record, GrownFormatStillDecodes) {
+  const Encoded e = encode(example_record());
+  Encoded grown;
+  std::size_t w = 0;
+  auto put = [&](const std::uint8_t* p, std::size_t n) {
+    std::memcpy(grown.bytes + w, p, n);
+    w += n;
+  };
+  put(e.bytes, 36);                                                     // header and info section
+  grown.bytes[16] = static_cast<std::uint8_t>(grown.bytes[16] | 0x08);  // a newer part's bit
+  const std::uint8_t accel_header[4] = {2, 0, 80 + 8, 0};               // 8 more bytes
+  put(accel_header, 4);
+  put(e.bytes + 40, 80);
+  const std::uint8_t appended[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+  put(appended, 8);
+  const std::uint8_t future[4 + 6] = {9, 0, 6, 0, 0xAA, 0xBB, 0xCC, 0xDD, 0xEE, 0xFF};
+  put(future, sizeof future);
+  put(e.bytes + 120, 108);  // gyro section
+  grown.size = w + 4;
+  grown.bytes[6] = static_cast<std::uint8_t>(grown.size & 0xFF);
+  grown.bytes[7] = static_cast<std::uint8_t>(grown.size >> 8);
+  reseal(grown);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(grown.bytes, grown.size, back), Status::kOk);
+  expect_same(example_record(), back);
+  EXPECT_EQ(back.unknown_sections, 1);
+}
+
+}  // namespace
+}  // namespace imucal

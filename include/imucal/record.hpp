@@ -1,0 +1,90 @@
+// imucal/record.hpp: the calibration record, the bytes the firmware keeps in flash. Encoded
+// field by field (little-endian, IEEE-754 binary32), so it does not depend on the compiler's
+// struct layout or the CPU's byte order; decoding validates every byte and says what is wrong.
+// Never allocates, never throws; float only (the device type).
+//
+// Format version 1 (all integers little-endian, all reals IEEE-754 binary32):
+//
+//   offset  size  field
+//        0     4  magic "IMCR" (0x49 0x4D 0x43 0x52)
+//        4     1  format version (1)
+//        5     1  reserved, 0
+//        6     2  total length N in bytes, CRC included
+//        8     4  device id (the firmware's choice, e.g. a serial number)
+//       12     4  sensor id (e.g. the IMU's WHO_AM_I and bus address)
+//       16     2  parts present: bit 0 accelerometer, bit 1 gyroscope (other bits: 0)
+//       18     2  reserved, 0
+//       20   ...  sections, each: tag (1), reserved 0 (1), payload length L (2), payload (L)
+//      N-4     4  CRC-32 (IEEE 802.3, as zlib's crc32) of bytes [0, N-4)
+//
+//   tag 1, info (12 bytes, always present): quality (1: 0 none .. 3 good), flags (1: bit 0
+//          temperature known), reserved 0 (2), temperature at calibration in deg C (4), sample
+//          rate in Hz (4; 0 if unknown)
+//   tag 2, accelerometer (80 bytes, iff parts bit 0): poses (2), reserved 0 (2), the 9
+//          parameters in accel_model.hpp's order (36), their sigmas (36), pose residual RMS (4)
+//   tag 3, gyroscope (104 bytes, iff parts bit 1): moves (2), flags (1: bit 0 bias refined),
+//          reserved 0 (1), the 12 parameters in gyro_model.hpp's order (48), sigmas (48),
+//          move residual RMS (4)
+//
+// How the format grows (and older records keep decoding): new content comes as new sections
+// (new tags, new parts bits) or as fields appended to a section's payload; a decoder reads the
+// fields it knows, skips sections it does not know (counted in unknown_sections) and ignores a
+// payload's unknown tail. A record without a newer section simply lacks that part. The version
+// changes only if the header itself changes; a decoder refuses versions newer than its own.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "imucal/accel_calibration.hpp"
+#include "imucal/calibrator.hpp"
+#include "imucal/gyro_calibration.hpp"
+#include "imucal/status.hpp"
+
+namespace imucal {
+
+constexpr std::uint8_t kRecordVersion = 1;
+constexpr std::size_t kRecordHeaderBytes = 20;
+// The largest record a decoder accepts (version 1 with both parts: 232 bytes; the rest is room
+// for the format to grow). Buffers and flash slots are sized with it.
+constexpr std::size_t kRecordMaxBytes = 512;
+
+enum RecordPart : std::uint16_t {
+  kRecordAccel = 1u << 0,
+  kRecordGyro = 1u << 1,
+};
+
+// What a record holds: the calibration (quality, sample rate and temperature included) and
+// who it belongs to. The parts absent from `parts` keep status kNotStarted and zeros.
+struct CalibrationRecord {
+  std::uint8_t version = kRecordVersion;  // of the decoded bytes (encode writes kRecordVersion)
+  std::uint32_t device_id = 0;
+  std::uint32_t sensor_id = 0;
+  std::uint16_t parts = 0;
+  Calibration<float> calibration{};
+  int unknown_sections = 0;  // decode only: sections of a newer format, skipped
+};
+
+// The record of a calibration: its usable parts (succeeded status, finite values) and quality.
+// kInvalidArgument if neither part is usable or a value does not fit the format (counts above
+// 65535, a non-positive scale, a negative sigma, non-finite values).
+template <typename Scalar>
+Status make_record(const Calibration<Scalar>& calibration, std::uint32_t device_id,
+                   std::uint32_t sensor_id, CalibrationRecord& out);
+
+// Writes the record into out[0, capacity); *size receives its length. kInvalidArgument for an
+// inconsistent record (the checks of decode_record), kCapacityExceeded if it does not fit.
+Status encode_record(const CalibrationRecord& record, std::uint8_t* out, std::size_t capacity,
+                     std::size_t* size);
+
+// Reads a record from data[0, size) (bytes after the record's own length are ignored, as in a
+// flash slot). On success `out` holds it; otherwise `out` is unchanged and, if error_offset is
+// given, it receives the offset of the first byte found wrong (for a CRC mismatch: N - 4).
+Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationRecord& out,
+                     std::size_t* error_offset = nullptr);
+
+// CRC-32 (IEEE 802.3, reflected 0xEDB88320, as zlib's crc32()); `crc` continues a previous
+// value (start with 0). Table-free nibble loop: 64 bytes of constants.
+std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc = 0);
+
+}  // namespace imucal

@@ -1,0 +1,404 @@
+// The calibration record's encoder and validating decoder (format: include/imucal/record.hpp).
+#include "imucal/record.hpp"
+
+#include <cmath>
+#include <cstring>
+
+namespace imucal {
+namespace {
+
+constexpr std::uint8_t kMagic[4] = {0x49, 0x4D, 0x43, 0x52};  // "IMCR"
+constexpr std::size_t kCrcBytes = 4;
+constexpr std::size_t kSectionHeaderBytes = 4;
+
+enum Tag : std::uint8_t { kTagInfo = 1, kTagAccel = 2, kTagGyro = 3 };
+constexpr std::uint16_t kInfoBytes = 12;
+constexpr std::uint16_t kAccelBytes = 4 + 4 * (2 * kAccelParams + 1);
+constexpr std::uint16_t kGyroBytes = 4 + 4 * (2 * kGyroParams + 1);
+constexpr std::uint16_t kKnownParts = kRecordAccel | kRecordGyro;
+
+// Plausible bounds: an IMU's operating temperatures, any sample rate a MEMS part offers.
+constexpr float kMinTemperature = -100.0f, kMaxTemperature = 200.0f;
+constexpr float kMaxSampleRate = 1.0e6f;
+
+// ---- Bytes ---------------------------------------------------------------------------------
+
+class Writer {
+ public:
+  Writer(std::uint8_t* out, std::size_t capacity) : out_(out), capacity_(capacity) {}
+  void u8(std::uint8_t v) {
+    if (pos_ < capacity_) out_[pos_] = v;
+    ++pos_;
+  }
+  void u16(std::uint16_t v) {
+    u8(static_cast<std::uint8_t>(v & 0xFFu));
+    u8(static_cast<std::uint8_t>(v >> 8));
+  }
+  void u32(std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) u8(static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu));
+  }
+  void f32(float v) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    u32(bits);
+  }
+  void put_u16_at(std::size_t at, std::uint16_t v) {
+    if (at + 1 < capacity_) {
+      out_[at] = static_cast<std::uint8_t>(v & 0xFFu);
+      out_[at + 1] = static_cast<std::uint8_t>(v >> 8);
+    }
+  }
+  std::size_t pos() const { return pos_; }
+  bool fits() const { return pos_ <= capacity_; }
+
+ private:
+  std::uint8_t* out_;
+  std::size_t capacity_;
+  std::size_t pos_ = 0;
+};
+
+std::uint16_t load_u16(const std::uint8_t* p) {
+  return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
+}
+std::uint32_t load_u32(const std::uint8_t* p) {
+  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
+         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
+}
+float load_f32(const std::uint8_t* p) {
+  const std::uint32_t bits = load_u32(p);
+  float v;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+
+// Reads a section's payload field by field; the first out-of-range field sets `bad` (its
+// offset in the record). Reads past the payload never happen: the callers check its length.
+class Reader {
+ public:
+  Reader(const std::uint8_t* record, std::size_t at) : rec_(record), pos_(at) {}
+  std::uint8_t u8() { return rec_[pos_++]; }
+  std::uint16_t u16() {
+    const std::uint16_t v = load_u16(rec_ + pos_);
+    pos_ += 2;
+    return v;
+  }
+  float f32() {
+    const float v = load_f32(rec_ + pos_);
+    pos_ += 4;
+    return v;
+  }
+  // Checks that the field just read is acceptable; remembers the first one that is not.
+  void expect(bool ok, std::size_t size) {
+    if (!ok && !failed()) bad_ = pos_ - size;
+  }
+  void zero_u8() { expect(u8() == 0, 1); }
+  void zero_u16() { expect(u16() == 0, 2); }
+  float finite_f32() {
+    const float v = f32();
+    expect(std::isfinite(v), 4);
+    return v;
+  }
+  float non_negative_f32() {
+    const float v = f32();
+    expect(std::isfinite(v) && v >= 0.0f, 4);
+    return v;
+  }
+  bool failed() const { return bad_ != kNone; }
+  std::size_t bad() const { return bad_; }
+
+ private:
+  static constexpr std::size_t kNone = ~std::size_t(0);
+  const std::uint8_t* rec_;
+  std::size_t pos_;
+  std::size_t bad_ = kNone;
+};
+
+// ---- Validity of a record's values (shared by encode and decode) -----------------------------
+
+bool temperature_ok(bool known, float t) {
+  return known ? (std::isfinite(t) && t >= kMinTemperature && t <= kMaxTemperature) : t == 0.0f;
+}
+bool sample_rate_ok(float r) { return std::isfinite(r) && r >= 0.0f && r <= kMaxSampleRate; }
+bool accel_scale_ok(float s) { return std::isfinite(s) && s > 0.0f; }
+bool gyro_scale_ok(float s) { return std::isfinite(s) && s != 0.0f; }
+bool sigma_ok(float s) { return std::isfinite(s) && s >= 0.0f; }
+
+template <class V>
+bool all_of_finite(const V& v) {
+  for (int i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v(i))) return false;
+  return true;
+}
+template <class V>
+bool all_sigmas_ok(const V& v) {
+  for (int i = 0; i < v.size(); ++i)
+    if (!sigma_ok(v(i))) return false;
+  return true;
+}
+
+bool accel_ok(const AccelCalibration<float>& a) {
+  return a.poses >= kAccelMinPoses && a.poses <= 0xFFFF && all_of_finite(a.params) &&
+         accel_scale_ok(a.params(kScaleX)) && accel_scale_ok(a.params(kScaleY)) &&
+         accel_scale_ok(a.params(kScaleZ)) && all_sigmas_ok(a.sigma) && sigma_ok(a.residual_rms);
+}
+bool gyro_ok(const GyroCalibration<float>& g) {
+  return g.moves >= 1 && g.moves <= 0xFFFF && all_of_finite(g.params) &&
+         gyro_scale_ok(g.params(kGyroScaleX)) && gyro_scale_ok(g.params(kGyroScaleY)) &&
+         gyro_scale_ok(g.params(kGyroScaleZ)) && all_sigmas_ok(g.sigma) && sigma_ok(g.residual_rms);
+}
+bool record_ok(const CalibrationRecord& r) {
+  const Calibration<float>& c = r.calibration;
+  return (r.parts & ~kKnownParts) == 0 && r.parts != 0 && c.quality <= Quality::kGood &&
+         temperature_ok(c.has_temperature, c.temperature_c) && sample_rate_ok(c.sample_rate_hz) &&
+         (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
+         (!(r.parts & kRecordGyro) || gyro_ok(c.gyro));
+}
+
+// ---- Sections --------------------------------------------------------------------------------
+
+void read_info(Reader& in, Calibration<float>& c) {
+  const std::uint8_t quality = in.u8();
+  in.expect(quality <= static_cast<std::uint8_t>(Quality::kGood), 1);
+  c.quality = static_cast<Quality>(quality);
+  const std::uint8_t flags = in.u8();
+  in.expect((flags & ~1u) == 0, 1);
+  c.has_temperature = (flags & 1u) != 0;
+  in.zero_u16();
+  c.temperature_c = in.f32();
+  in.expect(temperature_ok(c.has_temperature, c.temperature_c), 4);
+  c.sample_rate_hz = in.f32();
+  in.expect(sample_rate_ok(c.sample_rate_hz), 4);
+}
+
+void read_accel(Reader& in, AccelCalibration<float>& a) {
+  a.poses = in.u16();
+  in.expect(a.poses >= kAccelMinPoses, 2);
+  in.zero_u16();
+  for (int i = 0; i < kAccelParams; ++i) {
+    a.params(i) = in.finite_f32();
+    if (i >= kScaleX && i <= kScaleZ) in.expect(accel_scale_ok(a.params(i)), 4);
+  }
+  for (int i = 0; i < kAccelParams; ++i) a.sigma(i) = in.non_negative_f32();
+  a.residual_rms = in.non_negative_f32();
+  a.status = Status::kOk;
+}
+
+void read_gyro(Reader& in, GyroCalibration<float>& g) {
+  g.moves = in.u16();
+  in.expect(g.moves >= 1, 2);
+  const std::uint8_t flags = in.u8();
+  in.expect((flags & ~1u) == 0, 1);
+  g.bias_refined = (flags & 1u) != 0;
+  in.zero_u8();
+  for (int i = 0; i < kGyroParams; ++i) {
+    g.params(i) = in.finite_f32();
+    if (i >= kGyroScaleX && i <= kGyroScaleZ) in.expect(gyro_scale_ok(g.params(i)), 4);
+  }
+  for (int i = 0; i < kGyroParams; ++i) g.sigma(i) = in.non_negative_f32();
+  g.residual_rms = in.non_negative_f32();
+  g.status = Status::kOk;
+}
+
+template <typename Scalar, class V>
+bool to_float(const V& in, Eigen::Matrix<float, V::RowsAtCompileTime, 1>& out) {
+  for (int i = 0; i < in.size(); ++i) {
+    out(i) = static_cast<float>(in(i));
+    if (!std::isfinite(out(i))) return false;
+  }
+  return true;
+}
+
+Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
+  if (error_offset != nullptr) *error_offset = offset;
+  return s;
+}
+
+}  // namespace
+
+std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc) {
+  // CRC of each nibble value, reflected polynomial 0xEDB88320.
+  static constexpr std::uint32_t kNibble[16] = {0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu,
+                                                0x76DC4190u, 0x6B6B51F4u, 0x4DB26158u, 0x5005713Cu,
+                                                0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu,
+                                                0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu};
+  crc = ~crc;
+  for (std::size_t i = 0; i < size; ++i) {
+    crc ^= data[i];
+    crc = (crc >> 4) ^ kNibble[crc & 0xFu];
+    crc = (crc >> 4) ^ kNibble[crc & 0xFu];
+  }
+  return ~crc;
+}
+
+template <typename Scalar>
+Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::uint32_t sensor_id,
+                   CalibrationRecord& out) {
+  CalibrationRecord r;
+  r.device_id = device_id;
+  r.sensor_id = sensor_id;
+  Calibration<float>& f = r.calibration;
+  f.quality = c.quality;
+  f.sample_rate_hz = static_cast<float>(c.sample_rate_hz);
+  f.has_temperature = c.has_temperature;
+  f.temperature_c = c.has_temperature ? static_cast<float>(c.temperature_c) : 0.0f;
+  if (succeeded(c.accel.status)) {
+    AccelCalibration<float>& a = f.accel;
+    if (!to_float<Scalar>(c.accel.params, a.params) || !to_float<Scalar>(c.accel.sigma, a.sigma))
+      return Status::kInvalidArgument;
+    a.residual_rms = static_cast<float>(c.accel.residual_rms);
+    a.poses = c.accel.poses;
+    a.iterations = c.accel.iterations;
+    a.status = Status::kOk;
+    r.parts = static_cast<std::uint16_t>(r.parts | kRecordAccel);
+  }
+  if (succeeded(c.gyro.status)) {
+    GyroCalibration<float>& g = f.gyro;
+    if (!to_float<Scalar>(c.gyro.params, g.params) || !to_float<Scalar>(c.gyro.sigma, g.sigma))
+      return Status::kInvalidArgument;
+    g.residual_rms = static_cast<float>(c.gyro.residual_rms);
+    g.moves = c.gyro.moves;
+    g.iterations = c.gyro.iterations;
+    g.bias_refined = c.gyro.bias_refined;
+    g.status = Status::kOk;
+    r.parts = static_cast<std::uint16_t>(r.parts | kRecordGyro);
+  }
+  if (!record_ok(r)) return Status::kInvalidArgument;
+  out = r;
+  return Status::kOk;
+}
+
+template Status make_record<float>(const Calibration<float>&, std::uint32_t, std::uint32_t,
+                                   CalibrationRecord&);
+template Status make_record<double>(const Calibration<double>&, std::uint32_t, std::uint32_t,
+                                    CalibrationRecord&);
+
+Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t capacity,
+                     std::size_t* size) {
+  if (out == nullptr || !record_ok(r)) return Status::kInvalidArgument;
+  const Calibration<float>& c = r.calibration;
+  Writer w(out, capacity);
+  for (std::uint8_t b : kMagic) w.u8(b);
+  w.u8(kRecordVersion);
+  w.u8(0);
+  w.u16(0);  // length, filled in below
+  w.u32(r.device_id);
+  w.u32(r.sensor_id);
+  w.u16(r.parts);
+  w.u16(0);
+  w.u8(kTagInfo);
+  w.u8(0);
+  w.u16(kInfoBytes);
+  w.u8(static_cast<std::uint8_t>(c.quality));
+  w.u8(c.has_temperature ? 1 : 0);
+  w.u16(0);
+  w.f32(c.temperature_c);
+  w.f32(c.sample_rate_hz);
+  if (r.parts & kRecordAccel) {
+    const AccelCalibration<float>& a = c.accel;
+    w.u8(kTagAccel);
+    w.u8(0);
+    w.u16(kAccelBytes);
+    w.u16(static_cast<std::uint16_t>(a.poses));
+    w.u16(0);
+    for (int i = 0; i < kAccelParams; ++i) w.f32(a.params(i));
+    for (int i = 0; i < kAccelParams; ++i) w.f32(a.sigma(i));
+    w.f32(a.residual_rms);
+  }
+  if (r.parts & kRecordGyro) {
+    const GyroCalibration<float>& g = c.gyro;
+    w.u8(kTagGyro);
+    w.u8(0);
+    w.u16(kGyroBytes);
+    w.u16(static_cast<std::uint16_t>(g.moves));
+    w.u8(g.bias_refined ? 1 : 0);
+    w.u8(0);
+    for (int i = 0; i < kGyroParams; ++i) w.f32(g.params(i));
+    for (int i = 0; i < kGyroParams; ++i) w.f32(g.sigma(i));
+    w.f32(g.residual_rms);
+  }
+  const std::size_t n = w.pos() + kCrcBytes;
+  if (n > capacity || n > kRecordMaxBytes) return Status::kCapacityExceeded;
+  w.put_u16_at(6, static_cast<std::uint16_t>(n));
+  w.u32(crc32(out, n - kCrcBytes));
+  if (size != nullptr) *size = n;
+  return Status::kOk;
+}
+
+Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationRecord& out,
+                     std::size_t* error_offset) {
+  if (data == nullptr) return Status::kInvalidArgument;
+  // The header, in the order its fields can be trusted: magic, version, then the length (so a
+  // truncation is told from corruption), then the CRC over everything, then the fields.
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (i >= size) return fail(Status::kRecordTruncated, size, error_offset);
+    if (data[i] != kMagic[i]) return fail(Status::kRecordBadMagic, i, error_offset);
+  }
+  if (size < 8) return fail(Status::kRecordTruncated, size, error_offset);
+  const std::uint8_t version = data[4];
+  if (version == 0 || version > kRecordVersion)
+    return fail(Status::kRecordBadVersion, 4, error_offset);
+  const std::size_t n = load_u16(data + 6);
+  if (n < kRecordHeaderBytes + kSectionHeaderBytes + kInfoBytes + kCrcBytes || n > kRecordMaxBytes)
+    return fail(Status::kRecordBadLength, 6, error_offset);
+  if (size < n) return fail(Status::kRecordTruncated, size, error_offset);
+  if (crc32(data, n - kCrcBytes) != load_u32(data + n - kCrcBytes))
+    return fail(Status::kRecordBadChecksum, n - kCrcBytes, error_offset);
+
+  CalibrationRecord r;
+  r.version = version;
+  if (data[5] != 0) return fail(Status::kRecordBadField, 5, error_offset);
+  r.device_id = load_u32(data + 8);
+  r.sensor_id = load_u32(data + 12);
+  const std::uint16_t parts = load_u16(data + 16);
+  if (load_u16(data + 18) != 0) return fail(Status::kRecordBadField, 18, error_offset);
+  // Parts bits of a newer format are allowed: their sections are skipped below.
+  r.parts = static_cast<std::uint16_t>(parts & kKnownParts);
+
+  std::uint16_t seen = 0;  // bit per known tag
+  const std::size_t end = n - kCrcBytes;
+  std::size_t at = kRecordHeaderBytes;
+  while (at < end) {
+    if (end - at < kSectionHeaderBytes) return fail(Status::kRecordBadLength, at, error_offset);
+    const std::uint8_t tag = data[at];
+    if (tag == 0) return fail(Status::kRecordBadField, at, error_offset);
+    if (data[at + 1] != 0) return fail(Status::kRecordBadField, at + 1, error_offset);
+    const std::size_t length = load_u16(data + at + 2);
+    const std::size_t payload = at + kSectionHeaderBytes;
+    if (length > end - payload) return fail(Status::kRecordBadLength, at + 2, error_offset);
+    const std::uint16_t bit = static_cast<std::uint16_t>(tag < 16 ? 1u << tag : 0u);
+    if (tag <= kTagGyro && (seen & bit)) return fail(Status::kRecordBadField, at, error_offset);
+    seen = static_cast<std::uint16_t>(seen | bit);
+    Reader in(data, payload);
+    switch (tag) {
+      case kTagInfo:
+        if (length < kInfoBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
+        read_info(in, r.calibration);
+        break;
+      case kTagAccel:
+        if (length < kAccelBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
+        if (!(parts & kRecordAccel)) return fail(Status::kRecordBadField, at, error_offset);
+        read_accel(in, r.calibration.accel);
+        break;
+      case kTagGyro:
+        if (length < kGyroBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
+        if (!(parts & kRecordGyro)) return fail(Status::kRecordBadField, at, error_offset);
+        read_gyro(in, r.calibration.gyro);
+        break;
+      default:
+        ++r.unknown_sections;
+        break;
+    }
+    if (in.failed()) return fail(Status::kRecordBadField, in.bad(), error_offset);
+    at = payload + length;
+  }
+  // Every known part announced has its section, and the info section is there.
+  if (!(seen & (1u << kTagInfo))) return fail(Status::kRecordBadField, end, error_offset);
+  if ((parts & kRecordAccel) && !(seen & (1u << kTagAccel)))
+    return fail(Status::kRecordBadField, 16, error_offset);
+  if ((parts & kRecordGyro) && !(seen & (1u << kTagGyro)))
+    return fail(Status::kRecordBadField, 16, error_offset);
+  out = r;
+  return Status::kOk;
+}
+
+}  // namespace imucal
