@@ -44,12 +44,26 @@
 
 namespace imucal {
 
+// hi + lo += x, keeping hi + lo exact to about twice the scalar's precision (TwoSum, then
+// Fast2Sum renormalisation: |lo| stays within half an ulp of hi). Unlike a separate Neumaier
+// term, lo never grows when many small summands are swallowed by a large sum (a drifting
+// temperature over a day). Needs IEEE arithmetic: never build imucal with -ffast-math.
+template <typename Scalar>
+void compensated_add(Scalar& hi, Scalar& lo, Scalar x) {
+  const Scalar s = hi + x;
+  const Scalar bp = s - hi;
+  const Scalar err = (hi - (s - bp)) + (x - bp);
+  const Scalar l = lo + err;
+  hi = s + l;
+  lo = l - (hi - s);
+}
+
 template <typename Scalar>
 struct ImuSample {
   std::uint32_t t_us = 0;  // microseconds, wrapping (differences are taken modulo 2^32)
   Vector3<Scalar> acc = Vector3<Scalar>::Zero();   // raw accelerometer (counts or m/s^2)
   Vector3<Scalar> gyro = Vector3<Scalar>::Zero();  // raw gyroscope (counts or rad/s)
-  // Reserved for the temperature model (issue 6): not read yet.
+  // deg C, NaN if the sensor has none: its mean goes into the calibration (and its record).
   Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN();
 };
 
@@ -66,6 +80,18 @@ struct CalibratorSettings {
   Scalar gap_factor = Scalar(5);             // a step above this x the mean period is a gap
   Scalar max_step_seconds = Scalar(0.5);     // a gap whatever the period (initial rest too)
   Scalar frozen_seconds = Scalar(0.5);       // identical readings this long: sensor frozen
+  // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
+  // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
+  // the range in SI units). The defaults only refuse readings too large for the float sums.
+  Scalar accel_min = Scalar(-1e15), accel_max = Scalar(1e15);
+  Scalar gyro_min = Scalar(-1e15), gyro_max = Scalar(1e15);
+  // The sample rate the sensor is configured for (0: not checked). Over every second of the
+  // stream, a measured rate further than rate_tolerance (relative) from it is reported.
+  Scalar nominal_rate_hz = Scalar(0);
+  Scalar rate_tolerance = Scalar(0.1);
+  // This many consecutive samples behind the clock, in order among themselves: the clock was
+  // reset (the stream restarts as after a gap) rather than a few bad timestamps.
+  int clock_reset_samples = 3;
   // Segments (math.md section 4): path angle and |alpha||beta| (rad^3) bounds. The defaults keep
   // the second-order expansion within ~7e-5 rad on a 3 s coning move (test_gyro_segment); 3e-4
   // gives ~1e-5 rad for ~35 % more segments (on the xsens recording: 0.04 instead of 0.10 sigma
@@ -105,6 +131,21 @@ enum class Hint : std::uint8_t {
 
 enum class Quality : std::uint8_t { kNone, kPoor, kFair, kGood };
 
+// What the stream did wrong, each counted by kind (Progress::stream). Samples refused are also
+// in Progress::samples_refused; what was collected before any of these is kept.
+struct StreamCounts {
+  std::uint32_t non_finite = 0;       // samples with a NaN or infinity: refused
+  std::uint32_t accel_saturated = 0;  // accelerometer at full scale: taken as motion
+  std::uint32_t gyro_saturated = 0;   // gyro at full scale: refused, the move in progress dropped
+  std::uint32_t frozen = 0;           // samples refused while a sensor repeated itself
+  std::uint32_t time_repeated = 0;    // same timestamp as the previous sample: refused
+  std::uint32_t time_backwards = 0;   // timestamp before the previous one: refused
+  std::uint32_t clock_resets = 0;     // the clock went back and stayed back: resynchronised
+  std::uint32_t gaps = 0;             // steps above the gap limit
+  std::uint32_t rate_off = 0;         // one-second windows with a rate far from nominal
+  std::uint32_t busy = 0;             // samples offered while solving or solved: refused
+};
+
 struct Progress {
   Phase phase = Phase::kInitialRest;
   Hint hint = Hint::kHoldStill;
@@ -122,6 +163,7 @@ struct Progress {
   int moves_dropped = 0;  // across gaps, frozen spells, capacity, or the end
   int coarsenings = 0;    // times the segment store was merged pairwise
   std::uint32_t samples_refused = 0;
+  StreamCounts stream{};  // bad samples and stream events, each by kind
 };
 
 template <typename Scalar>
@@ -129,6 +171,9 @@ struct Calibration {
   AccelCalibration<Scalar> accel{};
   GyroCalibration<Scalar> gyro{};
   Quality quality = Quality::kNone;
+  Scalar sample_rate_hz = Scalar(0);  // measured over the initial rest
+  bool has_temperature = false;       // the samples carried a temperature
+  Scalar temperature_c = Scalar(0);   // if so, its mean over the samples taken (deg C)
 };
 
 // The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, 636 segments, one partial
@@ -165,6 +210,14 @@ class Calibrator {
     phase_ = Phase::kInitialRest;
     last_event_ = Status::kOk;
     have_prev_ = false;
+    restart_stream_ = true;
+    back_run_ = 0;
+    t_back_ = 0;
+    rate_us_ = 0;
+    rate_n_ = 0;
+    counts_ = StreamCounts{};
+    temp_ref_ = temp_sum_ = temp_comp_ = Scalar(0);
+    temp_n_ = 0;
     frozen_time_ = Scalar(0);
     frozen_ = false;
     poses_.clear();
@@ -198,28 +251,56 @@ class Calibrator {
   }
 
   // One raw sample. kOk: taken. Refused (nothing collected is lost): kNonFiniteInput,
-  // kTimeNotIncreasing, kSensorFrozen, kBusy, kInvalidArgument (settings). Taken with a note:
-  // kTimestampGap, kInitialRestDisturbed, kCapacityExceeded (pose store full).
+  // kTimeRepeated, kTimeBackwards, kSensorFrozen, kBusy, kInvalidArgument (settings), and
+  // kSaturated for a gyro at full scale (the move in progress is dropped as across a gap).
+  // Taken with a note: kSaturated for an accelerometer at full scale (the sample counts as
+  // motion), kTimestampGap, kClockReset, kSampleRateOff, kInitialRestDisturbed,
+  // kCapacityExceeded (pose store full). Every case is counted in progress().stream.
   Status add(const ImuSample<Scalar>& s) {
     if (!settings_ok_) return refuse(Status::kInvalidArgument);
-    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed)
+    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed) {
+      ++counts_.busy;
       return refuse(Status::kBusy);
+    }
     // One test for all six readings: x - x is 0 for a finite x and NaN otherwise.
     const Scalar nan_if_any = (s.acc - s.acc).sum() + (s.gyro - s.gyro).sum();
-    if (!(nan_if_any == Scalar(0))) return refuse(Status::kNonFiniteInput);
+    if (!(nan_if_any == Scalar(0))) {
+      ++counts_.non_finite;
+      return refuse(Status::kNonFiniteInput);
+    }
     std::int32_t step = 0;
+    Status result = Status::kOk;
     if (have_prev_) {
       step = static_cast<std::int32_t>(s.t_us - t_prev_);
-      if (step <= 0) return refuse(Status::kTimeNotIncreasing);
+      if (step == 0) {
+        ++counts_.time_repeated;
+        return refuse(Status::kTimeRepeated);
+      }
+      if (step < 0) {
+        if (!clock_went_back(s.t_us)) {
+          ++counts_.time_backwards;
+          return refuse(Status::kTimeBackwards);
+        }
+        // Reset: this sample starts the stream again, as after a gap.
+        ++counts_.clock_resets;
+        on_gap();
+        result = last_event_ = Status::kClockReset;
+        restart_stream_ = true;
+      }
     }
+    back_run_ = 0;
+    const bool gyro_saturated = outside(s.gyro, settings_.gyro_min, settings_.gyro_max);
+    const bool acc_saturated = outside(s.acc, settings_.accel_min, settings_.accel_max);
     Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
     // Frozen: either sensor's reading bit-identical to its previous one for frozen_seconds.
-    if (have_prev_ && (same_bits(s.acc, acc_prev_) || same_bits(s.gyro, gyro_prev_))) {
+    if (have_prev_ && !restart_stream_ &&
+        (same_bits(s.acc, acc_prev_) || same_bits(s.gyro, gyro_prev_))) {
       frozen_time_ += dt;
       t_prev_ = s.t_us;
       if (frozen_time_ >= settings_.frozen_seconds) {
         if (!frozen_) on_frozen();
         frozen_ = true;
+        ++counts_.frozen;
         ++samples_refused_;
         return Status::kSensorFrozen;
       }
@@ -227,25 +308,49 @@ class Calibrator {
       frozen_time_ = Scalar(0);
       if (frozen_) {
         frozen_ = false;
-        have_prev_ = false;  // the stream starts again after the frozen spell
+        restart_stream_ = true;  // the stream starts again after the frozen spell
       }
     }
     acc_prev_ = s.acc;
     gyro_prev_ = s.gyro;
-    Status result = Status::kOk;
-    if (have_prev_ && static_cast<std::uint32_t>(step) > gap_us_) {
+    t_prev_ = s.t_us;
+    have_prev_ = true;
+    if (gyro_saturated) {
+      // The rotation over this interval is unknown: nothing can be integrated across it.
+      ++counts_.gyro_saturated;
+      if (!restart_stream_) on_gap();
+      restart_stream_ = true;
+      last_event_ = Status::kSaturated;
+      return refuse(Status::kSaturated);
+    }
+    if (!restart_stream_ && static_cast<std::uint32_t>(step) > gap_us_) {
+      ++counts_.gaps;
       on_gap();
       result = last_event_ = Status::kTimestampGap;
-      have_prev_ = false;
+      restart_stream_ = true;
     }
-    if (!have_prev_) dt = Scalar(0);  // first sample after a start or a gap: no interval
-    have_prev_ = true;
-    t_prev_ = s.t_us;
+    if (restart_stream_) {  // first sample after a start, a gap or a reset: no interval
+      dt = Scalar(0);
+      step = 0;
+      restart_stream_ = false;
+      rate_us_ = 0;
+      rate_n_ = 0;
+    }
+    if (s.temperature == s.temperature) add_temperature(s.temperature);
+    if (acc_saturated) {
+      ++counts_.accel_saturated;
+      result = last_event_ = Status::kSaturated;
+    }
+    if (settings_.nominal_rate_hz > Scalar(0) && rate_window(static_cast<std::uint32_t>(step)) &&
+        result == Status::kOk)
+      result = Status::kSampleRateOff;
     if (phase_ == Phase::kInitialRest) {
-      const Status r = initial_rest_sample(s, dt);
+      // A saturated accelerometer cannot be at rest: the initial rest starts again.
+      if (acc_saturated) restart_initial_rest();
+      const Status r = acc_saturated ? Status::kOk : initial_rest_sample(s, dt);
       return r == Status::kOk ? result : r;
     }
-    collect_sample(s, dt);
+    collect_sample(s, dt, acc_saturated);
     if (pose_store_full_reported_ && result == Status::kOk) {
       pose_store_full_reported_ = false;
       return Status::kCapacityExceeded;
@@ -267,6 +372,7 @@ class Calibrator {
     p.moves_dropped = moves_dropped_;
     p.coarsenings = coarsenings_;
     p.samples_refused = samples_refused_;
+    p.stream = counts_;
     p.faces = faces();
     for (int i = 0; i < 6; ++i) p.faces_covered += (p.faces >> i) & 1;
     p.next_face = 0;
@@ -290,6 +396,8 @@ class Calibrator {
     const bool pending_pose = rest_open_ && rest_long_enough(true) && !poses_.full();
     if (poses_.size() + (pending_pose ? 1 : 0) < kAccelMinPoses) return Status::kTooFewPoses;
     end_of_stream();
+    calibration_.sample_rate_hz = period_ > Scalar(0) ? Scalar(1) / period_ : Scalar(0);
+    calibration_.has_temperature = mean_temperature(calibration_.temperature_c);
     phase_ = Phase::kSolving;
     stage_ = SolveStage::kAccel;
     const Status s = accel_solver_.start(poses_.span());
@@ -351,32 +459,60 @@ class Calibrator {
   const Vector3<Scalar>& gyro_bias0() const { return b0_; }
   const Vector3<Scalar>& accel_noise_variance() const { return v0_; }
   Scalar mean_period() const { return period_; }
+  // The mean temperature of the samples taken so far; false if none carried one.
+  bool mean_temperature(Scalar& out) const {
+    if (temp_n_ == 0) return false;
+    out = temp_ref_ + (temp_sum_ + temp_comp_) / static_cast<Scalar>(temp_n_);
+    return true;
+  }
   const CalibratorSettings<Scalar>& settings() const { return settings_; }
 
  private:
   enum class SolveStage : std::uint8_t { kAccel, kGyro };
 
-  // A run of consecutive samples, all still or all moving: acceleration sum (relative to
-  // a_ref_), gyro statistics (of u = w + b0), path angle sum |u| dt, time span.
+  // A run of consecutive samples, all still or all moving: gyro statistics (of u = w + b0),
+  // path angle sum |u| dt, time span, and the acceleration sum, re-centred: relative to acc_ref
+  // (the block's first raw reading), so that the summands are noise-sized, and blocks are added
+  // into a rest compensated (compensated_add): a rest of hours keeps its mean exact (the 24-hour
+  // test in test_stream_faults.cpp holds float to double).
   struct Block {
     GyroSegment<Scalar> seg{};
+    Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero();
     Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
+    Vector3<Scalar> acc_comp = Vector3<Scalar>::Zero();  // low part: the sum is sum + comp
     Scalar path = Scalar(0);
     std::uint32_t n = 0;
     std::uint32_t t_begin = 0;
     std::uint32_t t_end = 0;
     bool still = true;
+    bool long_enough = false;  // rests: lasted min_rest_seconds (sticky: the clock wraps)
 
     void clear() {
       seg = GyroSegment<Scalar>{};
       acc_sum.setZero();
+      acc_comp.setZero();
       path = Scalar(0);
       n = 0;
+      long_enough = false;
+    }
+
+    Vector3<Scalar> acc_mean() const {
+      return acc_ref + (acc_sum + acc_comp) / static_cast<Scalar>(n);
     }
 
     void append(const Block& later) {
       seg.append(later.seg);
-      acc_sum += later.acc_sum;
+      if (n == 0) {
+        acc_ref = later.acc_ref;
+        acc_sum = later.acc_sum;
+        acc_comp = later.acc_comp;
+      } else {
+        // The later block's sum moved to this reference (n (ref' - ref): exact for raw counts),
+        // added compensated.
+        const Vector3<Scalar> add = later.acc_sum + later.acc_comp +
+                                    static_cast<Scalar>(later.n) * (later.acc_ref - acc_ref);
+        for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), add(i));
+      }
       path += later.path;
       if (n == 0) t_begin = later.t_begin;
       n += later.n;
@@ -431,6 +567,49 @@ class Calibrator {
   Status refuse(Status s) {
     ++samples_refused_;
     return s;
+  }
+
+  // Any axis at or beyond the full-scale limits (NaN was refused before).
+  static bool outside(const Vector3<Scalar>& v, Scalar lo, Scalar hi) {
+    return v(0) <= lo || v(0) >= hi || v(1) <= lo || v(1) >= hi || v(2) <= lo || v(2) >= hi;
+  }
+
+  // A timestamp behind the clock: true once clock_reset_samples of them came in order with
+  // normal steps between them (the clock was reset), false for a stray one (refused).
+  bool clock_went_back(std::uint32_t t) {
+    const std::int32_t since = static_cast<std::int32_t>(t - t_back_);
+    if (back_run_ > 0 && since > 0 && static_cast<std::uint32_t>(since) <= gap_us_)
+      ++back_run_;
+    else
+      back_run_ = 1;
+    t_back_ = t;
+    if (back_run_ < settings_.clock_reset_samples) return false;
+    back_run_ = 0;
+    return true;
+  }
+
+  // The rate over each second of the stream against the nominal one; true when a window just
+  // closed off-rate (counted, and the stream's latest event).
+  bool rate_window(std::uint32_t step_us) {
+    rate_us_ += step_us;
+    ++rate_n_;
+    if (rate_us_ < 1000000u) return false;
+    const Scalar rate = static_cast<Scalar>(rate_n_ - 1) * Scalar(1e6) /
+                        static_cast<Scalar>(rate_us_);  // intervals over their span
+    rate_us_ = 0;
+    rate_n_ = 1;  // this sample opens the next window
+    if (std::abs(rate / settings_.nominal_rate_hz - Scalar(1)) <= settings_.rate_tolerance)
+      return false;
+    ++counts_.rate_off;
+    last_event_ = Status::kSampleRateOff;
+    return true;
+  }
+
+  // Running mean of the temperature: re-centred on the first reading, compensated.
+  void add_temperature(Scalar t) {
+    if (temp_n_ == 0) temp_ref_ = t;
+    compensated_add(temp_sum_, temp_comp_, t - temp_ref_);
+    ++temp_n_;
   }
 
   // ---- Initial rest --------------------------------------------------------------------------
@@ -506,7 +685,9 @@ class Calibrator {
     ema_energy_ = e0_;
     // The initial rest is the first rest: it becomes pose 0 when the first move starts.
     rest_ = Block{};
+    rest_.acc_ref = a_ref_;
     rest_.acc_sum = init_.acc_sum;
+    rest_.long_enough = true;  // initial_rest_seconds >= min_rest_seconds
     rest_.n = init_.n;
     rest_.t_begin = init_.t_begin;
     rest_.t_end = init_.t_end;
@@ -521,25 +702,28 @@ class Calibrator {
 
   // The per-sample path, written per axis with the thresholds precomputed (bench_stream counts
   // its instructions): the detector, then the sample folded into the current block.
-  void collect_sample(const ImuSample<Scalar>& s, Scalar dt) {
+  void collect_sample(const ImuSample<Scalar>& s, Scalar dt, bool moving) {
     // Moving averages weighted by the actual step: sample-rate jitter changes nothing. Each
     // sample's contribution is clipped at outlier_sigma: a lone spike (the Xsens has 13-sigma
     // ones at rest) cannot end a rest, real motion still shows within 2-3 samples.
     const Scalar w = dt / (settings_.detector_seconds + dt);
-    const Scalar keep = Scalar(1) - w;
+    // A saturated accelerometer reading says nothing about the acceleration: it leaves the
+    // accelerometer's averages alone, and the sample counts as motion (`moving`).
+    const Scalar wa = moving ? Scalar(0) : w;
+    const Scalar keep = Scalar(1) - wa;
     // The rate over the interval is the mean of its two end samples (trapezoid, as the RK4
     // reference interpolates linearly between samples): holding the newer sample instead
     // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale. (A
     // first sample has dt = 0: whatever u_prev_ holds then adds nothing.)
-    Vector3<Scalar> a, u_mid;
+    Vector3<Scalar> u_mid;
     Scalar var2 = Scalar(0), energy = Scalar(0), path2 = Scalar(0);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
       const Scalar ai = s.acc(i) - a_ref_(i);
       const Scalar d = ai - ema_mean_(i);
-      ema_mean_(i) += w * d;
+      ema_mean_(i) += wa * d;
       const Scalar d2 = d * d < clip_v0_(i) ? d * d : clip_v0_(i);
-      const Scalar v = keep * (ema_var_(i) + w * d2);
+      const Scalar v = keep * (ema_var_(i) + wa * d2);
       ema_var_(i) = v;
       var2 += v * v;
       const Scalar ui = s.gyro(i) + b0_(i);
@@ -547,11 +731,10 @@ class Calibrator {
       const Scalar mi = Scalar(0.5) * (ui + u_prev_(i));
       u_prev_(i) = ui;
       path2 += mi * mi;
-      a(i) = ai;
       u_mid(i) = mi;
     }
     ema_energy_ += w * ((energy < clip_e0_ ? energy : clip_e0_) - ema_energy_);
-    const bool still = var2 <= still_var2_ && ema_energy_ <= still_energy_;
+    const bool still = !moving && var2 <= still_var2_ && ema_energy_ <= still_energy_;
     last_still_ = still;
     // Blocks are homogeneous, short, and valid segments: close before a change of state or
     // a path angle above the segment bound, after the duration or the error bound.
@@ -561,9 +744,10 @@ class Calibrator {
     if (block_.n == 0) {
       block_.still = still;
       block_.t_begin = s.t_us;
+      block_.acc_ref = s.acc;
     }
     block_.seg.add(u_mid, dt);
-    block_.acc_sum += a;
+    block_.acc_sum += s.acc - block_.acc_ref;
     block_.path += step_path;
     ++block_.n;
     block_.t_end = s.t_us;
@@ -634,12 +818,16 @@ class Calibrator {
     if (!rest_open_) {
       rest_ = b;
       rest_open_ = true;
-      return;
+    } else {
+      rest_.append(b);
     }
-    rest_.append(b);
+    if (!rest_.long_enough) rest_.long_enough = rest_long_enough(false);
   }
 
+  // Timestamps wrap after 71.6 min: a rest that lasted min_rest_seconds stays long enough (the
+  // flag is set while the span is still short).
   bool rest_long_enough(bool with_delay_line) const {
+    if (rest_.long_enough) return true;
     std::uint32_t end = rest_.t_end;
     if (with_delay_line && delay_count_ > 0)
       end = delay_[(delay_head_ + delay_count_ - 1) % DelayBlocks].t_end;
@@ -666,8 +854,7 @@ class Calibrator {
       drop_move();
       return;
     }
-    const Scalar n = static_cast<Scalar>(rest_.n);
-    if (poses_.add(a_ref_ + rest_.acc_sum / n, rest_.n) != Status::kOk) {
+    if (poses_.add(rest_.acc_mean(), rest_.n) != Status::kOk) {
       drop_move();
       return;
     }
@@ -946,7 +1133,15 @@ class Calibrator {
   Status last_event_ = Status::kOk;
 
   // Stream state.
-  bool have_prev_ = false;
+  bool have_prev_ = false;      // t_prev_ holds a time to order against
+  bool restart_stream_ = true;  // the next sample taken starts the stream (no interval)
+  int back_run_ = 0;            // consecutive samples behind the clock
+  std::uint32_t t_back_ = 0;    // the latest of them
+  std::uint32_t rate_us_ = 0;   // the open one-second rate window: its span
+  std::uint32_t rate_n_ = 0;    // and its samples
+  StreamCounts counts_{};
+  Scalar temp_ref_ = Scalar(0), temp_sum_ = Scalar(0), temp_comp_ = Scalar(0);
+  std::uint32_t temp_n_ = 0;
   std::uint32_t t_prev_ = 0;
   Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();
   Scalar frozen_time_ = Scalar(0);
