@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Fuzzes the `imucal` tool's readers with libFuzzer (clang, with AddressSanitizer and
-# UndefinedBehaviorSanitizer) for a bounded time: tools/fuzz.sh [SECONDS] (default 60).
-# Seeds: the bundled recording's head, imu_tk lines, and malformed lines. Exit code 0 only if
+# Fuzzes the `imucal` tool's readers, then the calibration record decoder and store, with
+# libFuzzer (clang, with AddressSanitizer and UndefinedBehaviorSanitizer) for a bounded time:
+# tools/fuzz.sh [SECONDS] (default 60; the record target gets half as long).
+# Seeds: the bundled recording's head, imu_tk lines, malformed lines; the pinned version-1
+# record. Exit code 0 only if
 # nothing crashed; a crashing input is left in build/fuzz/ with its name printed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,3 +23,17 @@ printf '\x00# imucal: gravity=9.81 accel-unit=g\nt;ax;ay;az;gx;gy;gz\n1;2;3\n1,n
   >"$out/corpus/bad"
 "$out/fuzz_input" -max_total_time="$seconds" -max_len=4096 -timeout=10 \
   -artifact_prefix="$out/" "$out/corpus" 2>&1 | tail -n 4
+
+# The calibration record decoder and the two-slot store (half the time: a smaller input space).
+echo "-- record decoder and store"
+clang++ -std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
+  -Iinclude -Iports/include -isystem /usr/include/eigen3 \
+  tools/fuzz/fuzz_record.cpp lib/record.cpp lib/record_store.cpp lib/status.cpp \
+  lib/accel_calibration.cpp lib/gyro_calibration.cpp -o "$out/fuzz_record"
+mkdir -p "$out/corpus_record"
+# Seeds: the pinned version-1 record (both sensors), and the same cut short.
+printf "$(sed -n '/^0x/{s/0x/\\x/g; s/[, ]//g; p}' host_tests/support/record_v1_bytes.inc | tr -d '\n')" \
+  >"$out/corpus_record/v1"
+head -c 100 "$out/corpus_record/v1" >"$out/corpus_record/v1_short"
+"$out/fuzz_record" -max_total_time="$(( (seconds + 1) / 2 ))" -max_len=2048 -timeout=10 \
+  -artifact_prefix="$out/record-" "$out/corpus_record" 2>&1 | tail -n 4

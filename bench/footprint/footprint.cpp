@@ -8,6 +8,7 @@
 
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 #include "imucal/imucal.hpp"
+#include "imucal/port/sim_nor_flash.hpp"
 #endif
 
 namespace {
@@ -21,6 +22,7 @@ volatile float g_input[3 * 12] = {9.8f, 0.1f,  0.2f, -9.7f, 0.2f, 0.1f,  0.1f,  
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 // A global, not a function-local static: that would need a thread-safe guard (__cxa_guard_*).
 imucal::Calibrator<float> calibrator;
+imucal::SimNorFlash<2048, 1024, 64> flash;  // the firmware's flash driver (2 KB of bss here)
 #endif
 
 }  // namespace
@@ -72,6 +74,21 @@ int main() {
   std::printf("calibrator: %u bytes, phase %d, %d poses, %s, |w| %d\n",
               static_cast<unsigned>(sizeof(calibrator)), static_cast<int>(progress.phase),
               progress.poses, imucal::to_string(s3), static_cast<int>(w.norm()));
+  // Kept and applied: the record through the two-slot store, then the corrector.
+  imucal::CalibrationRecord record;
+  imucal::Status s4 = imucal::make_record(calibrator.calibration(), 1u, 2u, record);
+  imucal::RecordStore store(flash);
+  if (s4 == imucal::Status::kOk) s4 = store.save(record);
+  imucal::CalibrationRecord loaded;
+  const imucal::Status s5 = store.load(loaded);
+  imucal::Corrector<float> corrector;
+  corrector.set(loaded);
+  imucal::Vector3<float> a_cal, w_cal;
+  const float r[6] = {g_input[0], g_input[1], g_input[2], g_input[3], g_input[4], g_input[5]};
+  corrector.apply(imucal::Vector3<float>(r[0], r[1], r[2]),
+                  imucal::Vector3<float>(r[3], r[4], r[5]), a_cal, w_cal);
+  std::printf("record: %s, %s, parts %u, |a| %d\n", imucal::to_string(s4), imucal::to_string(s5),
+              static_cast<unsigned>(corrector.parts()), static_cast<int>(a_cal.norm()));
   return imucal::succeeded(s) && imucal::succeeded(s2) ? 0 : 1;
 #endif
 }
