@@ -5,6 +5,10 @@
 # not cycle-accurate: instructions, not cycles). Regions of the same name are summed: the table
 # gives their number, the mean and the largest. Each region includes 2 instructions of marker
 # overhead (the per-sample means are small enough for that to matter: 2 of ~150).
+# After the table, a second one gives the stack depths the programs measured by painting the
+# stack ("STACK" lines, bench/insn/stack_paint.hpp): the deepest call seen, in bytes below the
+# caller's stack pointer at the call, including the call's own frame. Only the paths the run
+# took: not a static worst case.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 preset=${1:-m4f}
@@ -17,12 +21,16 @@ esac
 echo "| region ($preset, $machine, -O2) | calls | mean | largest | total |"
 echo "| --- | ---: | ---: | ---: | ---: |"
 programs=(bench_accel_insn)
+if [ -f "$here/../build/$preset/bench/bench_apply_insn" ]; then
+  programs+=(bench_apply_insn)
+fi
 # The streaming benchmark reads the xsens recording beside the clone (CI always has it).
 if [ -f "$here/../../shared/data/xsens/xsens_acc.mat" ]; then
   programs+=(bench_stream_insn)
 else
   echo "(bench_stream_insn skipped: ../shared/data/xsens not found)" >&2
 fi
+stack=""
 for program in "${programs[@]}"; do
   elf=$here/../build/$preset/bench/$program
   out=$("$here/qemu_plugin/qemu_insn_count.sh" "$machine" "$elf")
@@ -40,4 +48,11 @@ for program in "${programs[@]}"; do
     END { for (i = 1; i <= k; i++) { r = order[i];
             printf "| %s | %d | %d | %d | %d |\n", r, n[r], sum[r] / n[r] + 0.5, max[r], sum[r] } }'
   printf '%s\n' "$out" | sed -n 's/^RESULT /    /p' >&2
+  stack+=$(printf '%s\n' "$out" | sed -n 's/^STACK \([^:]*\): \(.*\)$/| \1 | \2 |/p')$'\n'
 done
+if [ -n "${stack//$'\n'/}" ]; then
+  echo
+  echo "| stack ($preset, painted; bytes below the caller's SP, incl. the call's own frame) | deepest |"
+  echo "| --- | ---: |"
+  printf '%s' "$stack" | sed '/^$/d'
+fi
