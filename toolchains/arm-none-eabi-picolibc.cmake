@@ -17,7 +17,10 @@ set(CMAKE_EXE_LINKER_FLAGS_INIT
     "--oslib=semihost --crt0=semihost -Wl,--gc-sections \
 -Wl,--defsym=__flash=${IMUCAL_FLASH} -Wl,--defsym=__flash_size=${IMUCAL_FLASH_SIZE} \
 -Wl,--defsym=__ram=${IMUCAL_RAM} -Wl,--defsym=__ram_size=${IMUCAL_RAM_SIZE} \
--Wl,--defsym=__stack_size=${IMUCAL_STACK_SIZE}")
+-Wl,--defsym=__stack_size=${IMUCAL_STACK_SIZE} -T picolibcpp.ld")
+# The -T after the --defsym: the specs file's own -T comes first, when __stack_size is not yet
+# defined, and picolibcpp.ld then reserves its 2 KB default for the stack (__heap_end at
+# __stack - 0x800). Read again here, it reserves IMUCAL_STACK_SIZE.
 
 set(CMAKE_CROSSCOMPILING_EMULATOR "${CMAKE_CURRENT_LIST_DIR}/qemu-run.sh;${IMUCAL_QEMU_MACHINE}")
 set(IMUCAL_TARGET_SIZE arm-none-eabi-size)
