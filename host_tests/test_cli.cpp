@@ -14,6 +14,7 @@
 #include "cli.hpp"
 #include "imucal/accel_model.hpp"
 #include "imucal/gyro_model.hpp"
+#include "imucal/record.hpp"
 #include "input.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"
@@ -239,6 +240,50 @@ TEST(CliOptions, CommandLineWinsOverTheFile) {
   // Outputs cannot be set from a data file.
   EXPECT_FALSE(apply_file_settings({{"json", "/etc/passwd", "f.csv", 3}}, bad, error));
   EXPECT_NE(error.find("f.csv:3"), std::string::npos) << error;
+}
+
+TEST(CliOptions, RangesRateAndRecordIds) {
+  Options o;
+  std::string error;
+  ASSERT_TRUE(parse_calibrate_options(
+      {"--accel-range", "0,65535", "--gyro-range=-32768, 32767", "--rate", "200", "--record",
+       "r.bin", "--device-id", "0xDEADbeef", "--sensor-id", "4294967295", "f.csv"},
+      o, error))
+      << error;
+  EXPECT_DOUBLE_EQ(o.accel_min, 0);
+  EXPECT_DOUBLE_EQ(o.accel_max, 65535);
+  EXPECT_DOUBLE_EQ(o.gyro_min, -32768);
+  EXPECT_DOUBLE_EQ(o.gyro_max, 32767);
+  EXPECT_DOUBLE_EQ(o.nominal_rate_hz, 200);
+  EXPECT_EQ(o.record_path, "r.bin");
+  EXPECT_EQ(o.device_id, 0xDEADBEEFu);
+  EXPECT_EQ(o.sensor_id, 4294967295u);
+  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--accel-range", "5,5"},
+                                              {"--accel-range", "1"},
+                                              {"--gyro-range", "0,nan"},
+                                              {"--rate", "0"},
+                                              {"--device-id", "-1"},
+                                              {"--device-id", "0x100000000"},
+                                              {"--sensor-id", "12a"},
+                                              {"--sensor-id", "0x"}}) {
+    Options b;
+    EXPECT_FALSE(parse_calibrate_options(bad, b, error)) << bad[0] << " " << bad[1];
+    EXPECT_NE(error.find(bad[0]), std::string::npos) << error;
+  }
+  // The data settings may come from the file (a range keeps its comma there); the ids may not.
+  SampleReader reader;
+  Diagnostics diag;
+  ASSERT_TRUE(reader.open_memory({"# imucal: accel-range=0,65535 gyro-range=-100, 100 rate=100\n"
+                                  "t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n"},
+                                 Format::kCsv, diag));
+  Options f;
+  ASSERT_TRUE(apply_file_settings(reader.file_settings(), f, error)) << error;
+  EXPECT_DOUBLE_EQ(f.accel_max, 65535);
+  EXPECT_DOUBLE_EQ(f.gyro_min, -100);
+  EXPECT_DOUBLE_EQ(f.gyro_max, 100);
+  EXPECT_DOUBLE_EQ(f.nominal_rate_hz, 100);
+  EXPECT_FALSE(apply_file_settings({{"device-id", "7", "f.csv", 2}}, f, error));
+  EXPECT_FALSE(apply_file_settings({{"record", "x.bin", "f.csv", 2}}, f, error));
 }
 
 Json read_json(const std::string& path) {
@@ -531,6 +576,167 @@ TEST(CliExitCodes, BadSettingsTruthFilesAndStdoutOutputs) {
   EXPECT_TRUE(j["usable"].get<bool>());
   EXPECT_NE(err.find("quality  good"), std::string::npos);
   for (const std::string& f : {csv, bad_truth, json}) std::remove(f.c_str());
+}
+
+std::vector<std::uint8_t> read_binary(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+// --record writes the device's record of the run: decode_record accepts it, and its parameters
+// are the float calibration of the same run (the double one rounded to float); `imucal record`
+// prints it, and says what is wrong with a corrupted one.
+TEST(CliRecord, WrittenDecodedAndPrinted) {
+  const std::string csv = temp_path("rec.csv"), json = temp_path("rec.json"),
+                    bin = temp_path("rec.bin");
+  ASSERT_EQ(simulate_command({"--seed", "8", "-o", csv}), 0);
+  for (bool use_double : {false, true}) {
+    std::vector<std::string> args = {csv,  "--json",      json,         "--record",
+                                     bin,  "--device-id", "0x12345678", "--sensor-id",
+                                     "42", "--quiet"};
+    if (use_double) args.push_back("--double");
+    testing::internal::CaptureStdout();
+    const int code = calibrate_command(args, false);
+    const std::string summary = testing::internal::GetCapturedStdout();
+    ASSERT_EQ(code, 0) << summary;
+    const std::vector<std::uint8_t> bytes = read_binary(bin);
+    CalibrationRecord rec;
+    std::size_t at = 0;
+    ASSERT_EQ(decode_record(bytes.data(), bytes.size(), rec, &at), Status::kOk) << at;
+    EXPECT_EQ(rec.device_id, 0x12345678u);
+    EXPECT_EQ(rec.sensor_id, 42u);
+    EXPECT_EQ(rec.parts, kRecordAccel | kRecordGyro);
+    const Json r = read_json(json);
+    EXPECT_EQ(static_cast<int>(rec.calibration.quality), r["quality"] == "good" ? 3 : 2);
+    for (int k = 0; k < 9; ++k) {
+      const Json& p = r["accelerometer"]["parameters"][kAccelNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.params(k), p["value"].get<float>()) << kAccelNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.sigma(k), p["sigma"].get<float>()) << kAccelNames[k];
+    }
+    for (int k = 0; k < 12; ++k) {
+      const Json& p = r["gyroscope"]["parameters"][kGyroNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.params(k), p["value"].get<float>()) << kGyroNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.sigma(k), p["sigma"].get<float>()) << kGyroNames[k];
+    }
+  }
+
+  // `imucal record` prints every parameter as the calibrate summary does.
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(imucal_main({"record", bin}), 0);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("id 305419896 (0x12345678), sensor id 42"), std::string::npos) << out;
+  EXPECT_NE(out.find("parts    accelerometer, gyroscope"), std::string::npos) << out;
+  CalibrationRecord rec;
+  std::vector<std::uint8_t> bytes = read_binary(bin);
+  ASSERT_EQ(decode_record(bytes.data(), bytes.size(), rec), Status::kOk);
+  char line[128];
+  for (int k = 0; k < 12; ++k) {
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kGyroNames[k],
+                  static_cast<double>(rec.calibration.gyro.params(k)),
+                  static_cast<double>(rec.calibration.gyro.sigma(k)));
+    EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;
+  }
+  for (int k = 0; k < 9; ++k) {
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kAccelNames[k],
+                  static_cast<double>(rec.calibration.accel.params(k)),
+                  static_cast<double>(rec.calibration.accel.sigma(k)));
+    EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;
+  }
+
+  // One byte flipped in a parameter: the CRC says so, exit code 1.
+  bytes[60] ^= 0x01;
+  const std::string bad = temp_path("rec_bad.bin");
+  write_file(bad, std::string(bytes.begin(), bytes.end()));
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(imucal_main({"record", bad}), 1);
+  testing::internal::GetCapturedStdout();
+  std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find(to_string(Status::kRecordBadChecksum)), std::string::npos) << err;
+  EXPECT_NE(err.find("CRC"), std::string::npos) << err;
+  EXPECT_NE(err.find("at byte " + std::to_string(bytes.size() - 4)), std::string::npos) << err;
+  // Not a record at all: exit 1 with the status; usage and read errors: exit 2.
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(imucal_main({"record", csv}), 1);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find(to_string(Status::kRecordBadMagic)), std::string::npos) << err;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(imucal_main({"record", temp_path("no_such.bin")}), 2);
+  EXPECT_EQ(imucal_main({"record"}), 2);
+  EXPECT_EQ(imucal_main({"record", bin, bad}), 2);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("cannot read"), std::string::npos) << err;
+  // The ids without a record are a usage error.
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({csv, "--device-id", "7"}, false), 2);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("give --record FILE"), std::string::npos) << err;
+
+  // No usable calibration, no record (as no header).
+  const std::string few = temp_path("rec_few.csv"), few_bin = temp_path("rec_few.bin");
+  ASSERT_EQ(simulate_command({"--poses", "4", "-o", few}), 0);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({few, "--quiet", "--record", few_bin}, false), 1);
+  testing::internal::GetCapturedStdout();
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("no record written"), std::string::npos) << err;
+  EXPECT_FALSE(std::ifstream(few_bin).good());
+  for (const std::string& f : {csv, json, bin, bad, few}) std::remove(f.c_str());
+}
+
+// The calibrator's stream counts in the summary and the JSON: clipped accelerometer readings
+// (the ADC's full scale, given by --accel-range) and a wrong --rate.
+TEST(CliStream, CountsSaturationAndRate) {
+  const std::string csv = temp_path("clip.csv"), json = temp_path("clip.json");
+  ASSERT_EQ(simulate_command({"--seed", "9", "-o", csv}), 0);
+  // Lines 6001..6005 (t ~ 60 s, after the initial rest): az clipped at 65535.
+  std::ifstream in(csv);
+  std::stringstream clipped;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n > 6000 && n <= 6005) {
+      std::vector<std::string> f;
+      std::stringstream fields(line);
+      for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+      ASSERT_EQ(f.size(), 7u) << line;
+      f[3] = "65535";
+      line = f[0];
+      for (std::size_t i = 1; i < f.size(); ++i) line += "," + f[i];
+    }
+    clipped << line << "\n";
+  }
+  in.close();
+  write_file(csv, clipped.str());
+  auto run = [&](std::vector<std::string> extra, std::string& summary) {
+    std::vector<std::string> args = {csv, "--json", json, "--quiet"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    testing::internal::CaptureStdout();
+    const int code = calibrate_command(args, false);
+    summary = testing::internal::GetCapturedStdout();
+    EXPECT_NE(code, 2) << summary;
+    return read_json(json);
+  };
+  std::string summary;
+  // Without the range, 65535 is a reading like any other.
+  Json r = run({}, summary);
+  EXPECT_NE(summary.find("calibrator counts: none"), std::string::npos) << summary;
+  EXPECT_EQ(r["stream"]["accel_saturated"], 0);
+  r = run({"--accel-range", "0,65535"}, summary);
+  EXPECT_NE(summary.find("calibrator counts: accel saturated 5\n"), std::string::npos) << summary;
+  EXPECT_EQ(r["stream"]["accel_saturated"], 5);
+  EXPECT_EQ(r["stream"]["gyro_saturated"], 0);
+  EXPECT_EQ(r["configuration"]["accel_range"], Json::array({0.0, 65535.0}));
+  // The recording is at 100 Hz: against a nominal 200 Hz every second is off.
+  r = run({"--accel-range", "0,65535", "--rate", "200"}, summary);
+  const long seconds = r["stream"]["rate_off"].get<long>();
+  EXPECT_GE(seconds, 100);
+  EXPECT_NE(summary.find("accel saturated 5, rate off " + std::to_string(seconds)),
+            std::string::npos)
+      << summary;
+  r = run({"--rate", "100"}, summary);
+  EXPECT_EQ(r["stream"]["rate_off"], 0);
+  for (const std::string& f : {csv, json}) std::remove(f.c_str());
 }
 
 // The xsens recording through the command, float (device) and double (reference).

@@ -10,6 +10,7 @@
 
 #include "cli.hpp"
 #include "imucal/calibrator.hpp"
+#include "imucal/record.hpp"
 #include "outputs.hpp"
 
 namespace imucal::cli {
@@ -136,6 +137,15 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   cs.accel.gravity = static_cast<Scalar>(o.gravity);
   cs.gyro.nominal_scale = static_cast<Scalar>(gyro_nominal_scale(o));
   cs.gyro.refine_bias = o.refine_gyro_bias;
+  if (std::isfinite(o.accel_min)) {
+    cs.accel_min = static_cast<Scalar>(o.accel_min);
+    cs.accel_max = static_cast<Scalar>(o.accel_max);
+  }
+  if (std::isfinite(o.gyro_min)) {
+    cs.gyro_min = static_cast<Scalar>(o.gyro_min);
+    cs.gyro_max = static_cast<Scalar>(o.gyro_max);
+  }
+  cs.nominal_rate_hz = static_cast<Scalar>(o.nominal_rate_hz);
   const double zero = accel_nominal_zero(o);
   if (std::isfinite(zero))
     cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
@@ -188,6 +198,17 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   run.moves_dropped = p.moves_dropped;
   run.faces = p.faces;
   run.faces_covered = p.faces_covered;
+  const StreamCounts& sc = p.stream;
+  run.stream_counts = {{"non-finite", "non_finite", sc.non_finite},
+                       {"accel saturated", "accel_saturated", sc.accel_saturated},
+                       {"gyro saturated", "gyro_saturated", sc.gyro_saturated},
+                       {"frozen", "frozen", sc.frozen},
+                       {"repeated time", "time_repeated", sc.time_repeated},
+                       {"backwards time", "time_backwards", sc.time_backwards},
+                       {"clock resets", "clock_resets", sc.clock_resets},
+                       {"gaps", "gaps", sc.gaps},
+                       {"rate off", "rate_off", sc.rate_off},
+                       {"busy", "busy", sc.busy}};
   // A solve refused before the accelerometer started (too few poses) says so there.
   run.accel_status = to_string(c.accel.status == Status::kNotStarted ? solved : c.accel.status);
   run.accel_ok = succeeded(c.accel.status);
@@ -207,6 +228,19 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   for (int k = 0; k < 12; ++k) {
     run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
     run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
+  }
+  // The record the device would store: from the calibration itself (float, as on the device).
+  if (!o.record_path.empty() && run.usable) {
+    CalibrationRecord record;
+    std::uint8_t bytes[kRecordMaxBytes];
+    std::size_t size = 0;
+    Status st = make_record(c, o.device_id, o.sensor_id, record);
+    if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
+    if (st == Status::kOk) {
+      run.record.assign(bytes, bytes + size);
+    } else {
+      run.record_error = to_string(st);
+    }
   }
 
   // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
@@ -335,6 +369,12 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal report: give the page to write with -o PAGE.svg\n");
     return 2;
   }
+  for (const std::string& k : o.command_line_keys) {
+    if ((k == "device-id" || k == "sensor-id") && o.record_path.empty()) {
+      std::fprintf(stderr, "imucal: --%s goes into the record: give --record FILE\n", k.c_str());
+      return 2;
+    }
+  }
   if (o.files.empty()) {
     std::fprintf(stderr, "imucal: no input (a CSV file, - for stdin, or two imu_tk files)\n");
     return 2;
@@ -375,7 +415,8 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   }
 
   // An output sent to stdout gets stdout to itself; the summary goes to stderr then.
-  const bool stdout_taken = o.json_path == "-" || o.header_path == "-" || o.svg_path == "-";
+  const bool stdout_taken =
+      o.json_path == "-" || o.header_path == "-" || o.svg_path == "-" || o.record_path == "-";
   std::FILE* summary = stdout_taken ? stderr : stdout;
   print_summary(run, o, summary);
   bool written = true;
@@ -385,6 +426,17 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
       written = write_header(run, o, o.header_path) && written;
     } else {
       std::fprintf(stderr, "imucal: no header written: the calibration is not usable\n");
+    }
+  }
+  if (!o.record_path.empty()) {
+    if (!run.usable) {
+      std::fprintf(stderr, "imucal: no record written: the calibration is not usable\n");
+    } else if (!run.record_error.empty()) {
+      std::fprintf(stderr, "imucal: no record written: %s\n", run.record_error.c_str());
+      written = false;
+    } else {
+      written = write_text_file(o.record_path, std::string(run.record.begin(), run.record.end())) &&
+                written;
     }
   }
   if (!o.svg_path.empty())

@@ -16,6 +16,8 @@ const char* const kHelp =
   imucal report -o PAGE.svg [options] FILE...     the same, plus a picture page
   imucal simulate -o FILE [--truth FILE] [--seed N] [--poses N] [--rate HZ]
                   [--initial-rest S] [--units counts|si]   a recording with known truth
+  imucal record FILE                         print a calibration record (calibrate --record);
+                                             exit 1 if it is not valid (what, at which byte)
 
 Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, gz (optional
 temp, mx, my, mz; any order). Lines starting with # are comments; `# imucal: key=value ...`
@@ -32,15 +34,24 @@ Options (calibrate, report):
   --gravity G                     local gravity, m/s^2 (default 9.80665)
   --initial-rest S                the still start used for the gyro bias and noise (default 10)
   --min-rest S                    shorter rests are not poses (default 1)
+  --accel-range LO,HI             the accelerometer's full scale, raw units (e.g. 0,65535): a
+                                  reading at or beyond it is saturated (counted, taken as motion)
+  --gyro-range LO,HI              the gyroscope's (a saturated sample is counted and refused)
+  --rate HZ                       the configured sample rate: seconds far from it are counted
   --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
   --double                        run the double-precision reference instead of float
   --json FILE                     every parameter and sigma, model, poses, configuration
   --header FILE                   a C/C++ header of constants for firmware
+  --record FILE                   the binary calibration record the firmware stores in flash
+                                  (imucal/record.hpp: little-endian floats, CRC-32)
+  --device-id N, --sensor-id N    the record's ids (unsigned 32-bit, decimal or 0x hex; default 0)
   --truth FILE                    compare with the truth file of `imucal simulate`
   --svg FILE, -o FILE             the SVG report page (report needs it; calibrate may write it)
   --quiet                         no progress display on the terminal
 
+The header and the record are written only for a usable calibration.
 Exit code: 0 a usable calibration, 1 none (the summary says why), 2 bad usage or input.
+`imucal record`: 0 a valid record, 1 not valid, 2 bad usage or an unreadable file.
 )";
 
 }  // namespace
@@ -54,7 +65,8 @@ int imucal_main(const std::vector<std::string>& args) {
   if (args[0] == "calibrate") return calibrate_command(rest, false);
   if (args[0] == "report") return calibrate_command(rest, true);
   if (args[0] == "simulate") return simulate_command(rest);
-  std::fprintf(stderr, "imucal: unknown command '%s' (calibrate, report, simulate, help)\n",
+  if (args[0] == "record") return record_command(rest);
+  std::fprintf(stderr, "imucal: unknown command '%s' (calibrate, report, simulate, record, help)\n",
                args[0].c_str());
   return 2;
 }

@@ -2,8 +2,9 @@
 //   imucal calibrate [options] FILE...   calibrate a recording (CSV, imu_tk pair, or - for stdin)
 //   imucal report -o PAGE.svg [options] FILE...   the same, plus the picture page
 //   imucal simulate -o FILE [--truth FILE] [--seed N] ...   a recording with known truth
+//   imucal record FILE   a device calibration record (calibrate --record), decoded and printed
 // Exit codes: 0 a usable calibration (both sensors) or a command done; 1 the recording did not
-// give a usable calibration; 2 a usage error or an unreadable input.
+// give a usable calibration, or the record is not valid; 2 a usage error or an unreadable input.
 #pragma once
 
 #include <string>
@@ -23,5 +24,6 @@ bool apply_file_settings(const std::vector<FileSetting>& settings, Options& opti
                          std::string& error);
 int calibrate_command(const std::vector<std::string>& args, bool report);
 int simulate_command(const std::vector<std::string>& args);
+int record_command(const std::vector<std::string>& args);
 
 }  // namespace imucal::cli

@@ -202,7 +202,8 @@ std::string quoted(std::string_view s) {
   return r + "'";
 }
 
-// "# imucal: key=value key=value" -> settings.
+// "# imucal: key=value key=value" -> settings, separated by blanks, commas or semicolons. A
+// piece without '=' continues the previous value after a comma: "accel-range=0,65535".
 // False if the comment is not a settings comment. With out == nullptr it only tells.
 bool parse_settings(std::string_view line, const LineReader& in, std::vector<FileSetting>* out) {
   std::string_view rest = line.substr(1);
@@ -211,13 +212,23 @@ bool parse_settings(std::string_view line, const LineReader& in, std::vector<Fil
   if (rest.substr(0, kTag.size()) != kTag) return false;
   if (out == nullptr) return true;
   rest.remove_prefix(kTag.size());
-  std::vector<Field> fields;
-  split_fields(rest, fields);
-  for (const Field& f : fields) {
-    const std::size_t eq = f.text.find('=');
+  auto separator = [](char c) { return c == ' ' || c == '\t' || c == ',' || c == ';'; };
+  const std::size_t first = out->size();
+  std::size_t i = 0;
+  while (i < rest.size()) {
+    while (i < rest.size() && separator(rest[i])) ++i;
+    if (i >= rest.size()) break;
+    const std::size_t start = i;
+    while (i < rest.size() && !separator(rest[i])) ++i;
+    const std::string_view piece = rest.substr(start, i - start);
+    const std::size_t eq = piece.find('=');
+    if (eq == std::string_view::npos && out->size() > first) {
+      out->back().value += "," + std::string(piece);
+      continue;
+    }
     FileSetting s;
-    s.key = std::string(f.text.substr(0, eq));
-    s.value = eq == std::string_view::npos ? "" : std::string(f.text.substr(eq + 1));
+    s.key = std::string(piece.substr(0, eq));
+    s.value = eq == std::string_view::npos ? "" : std::string(piece.substr(eq + 1));
     s.file = in.name();
     s.line = in.line_number();
     out->push_back(std::move(s));

@@ -1,5 +1,6 @@
 // tools/imucal/options.cpp: the calibrate/report options, from the command line and from
 // `# imucal: key=value` comments in the input (the command line wins).
+#include <charconv>
 #include <cmath>
 #include <initializer_list>
 #include <string_view>
@@ -31,11 +32,17 @@ constexpr Key kKeys[] = {
     {"gravity", false, Where::kAnywhere},
     {"initial-rest", false, Where::kAnywhere},
     {"min-rest", false, Where::kAnywhere},
+    {"accel-range", false, Where::kAnywhere},
+    {"gyro-range", false, Where::kAnywhere},
+    {"rate", false, Where::kAnywhere},
     {"refine-gyro-bias", true, Where::kCommandLineOnly},
     {"double", true, Where::kCommandLineOnly},
     {"quiet", true, Where::kCommandLineOnly},
     {"json", false, Where::kCommandLineOnly},
     {"header", false, Where::kCommandLineOnly},
+    {"record", false, Where::kCommandLineOnly},
+    {"device-id", false, Where::kCommandLineOnly},
+    {"sensor-id", false, Where::kCommandLineOnly},
     {"output", false, Where::kCommandLineOnly},
     {"svg", false, Where::kCommandLineOnly},
     {"truth", false, Where::kCommandLineOnly},
@@ -52,6 +59,44 @@ bool positive(const std::string& key, const std::string& value, double& out, std
     error = "--" + key + ": expected a positive number, found '" + value + "'";
     return false;
   }
+  return true;
+}
+
+// "LO,HI": the full scale in raw units, LO < HI (blanks around either number allowed).
+bool range(const std::string& key, const std::string& value, double& lo, double& hi,
+           std::string& error) {
+  auto trimmed = [](std::string_view s) {
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+    return s;
+  };
+  const std::size_t comma = value.find(',');
+  double a = kNaN, b = kNaN;
+  if (comma == std::string::npos ||
+      !parse_number(trimmed(std::string_view(value).substr(0, comma)), a) ||
+      !parse_number(trimmed(std::string_view(value).substr(comma + 1)), b) || !std::isfinite(a) ||
+      !std::isfinite(b) || !(a < b)) {
+    error = "--" + key + ": expected LO,HI (raw units, LO < HI), found '" + value + "'";
+    return false;
+  }
+  lo = a;
+  hi = b;
+  return true;
+}
+
+// An unsigned 32-bit id: decimal, or hexadecimal after 0x.
+bool id(const std::string& key, const std::string& value, std::uint32_t& out, std::string& error) {
+  const bool hex = value.size() > 2 && value[0] == '0' && (value[1] == 'x' || value[1] == 'X');
+  const char* begin = value.data() + (hex ? 2 : 0);
+  const char* end = value.data() + value.size();
+  std::uint64_t v = 0;
+  const auto r = std::from_chars(begin, end, v, hex ? 16 : 10);
+  if (begin == end || r.ec != std::errc() || r.ptr != end || v > 0xFFFFFFFFu) {
+    error = "--" + key + ": expected an unsigned 32-bit number (decimal or 0x hex), found '" +
+            value + "'";
+    return false;
+  }
+  out = static_cast<std::uint32_t>(v);
   return true;
 }
 
@@ -99,6 +144,12 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     return positive(key, value, o.initial_rest, error);
   } else if (key == "min-rest") {
     return positive(key, value, o.min_rest, error);
+  } else if (key == "accel-range") {
+    return range(key, value, o.accel_min, o.accel_max, error);
+  } else if (key == "gyro-range") {
+    return range(key, value, o.gyro_min, o.gyro_max, error);
+  } else if (key == "rate") {
+    return positive(key, value, o.nominal_rate_hz, error);
   } else if (key == "refine-gyro-bias") {
     o.refine_gyro_bias = true;
   } else if (key == "double") {
@@ -109,6 +160,12 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     o.json_path = value;
   } else if (key == "header") {
     o.header_path = value;
+  } else if (key == "record") {
+    o.record_path = value;
+  } else if (key == "device-id") {
+    return id(key, value, o.device_id, error);
+  } else if (key == "sensor-id") {
+    return id(key, value, o.sensor_id, error);
   } else if (key == "output" || key == "svg") {
     o.svg_path = value;
   } else if (key == "truth") {

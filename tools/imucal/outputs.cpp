@@ -1,15 +1,21 @@
-// tools/imucal/outputs.cpp: summary, JSON, C header, truth comparison.
+// tools/imucal/outputs.cpp: summary, JSON, C header, truth comparison, and `imucal record`
+// (a stored calibration record, decoded and printed).
 #include "outputs.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
+#include "cli.hpp"
 #include "imucal/accel_model.hpp"
 #include "imucal/gyro_model.hpp"
+#include "imucal/record.hpp"
 
 namespace imucal::cli {
 
@@ -91,6 +97,12 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
   for (const StreamEvent& e : run.events)
     std::fprintf(out, "         %s: %ld samples (first at t = %.3f s)\n", e.status.c_str(), e.count,
                  e.first_t);
+  std::string counted;
+  for (const StreamCount& c : run.stream_counts)
+    if (c.count != 0)
+      counted +=
+          (counted.empty() ? "" : ", ") + std::string(c.name) + " " + std::to_string(c.count);
+  std::fprintf(out, "         calibrator counts: %s\n", counted.empty() ? "none" : counted.c_str());
 
   const char* au = accel_unit_name(o.accel_unit);
   std::fprintf(out, "\naccelerometer  %s\n  status: %s, %d iterations\n", kAccelModel,
@@ -176,6 +188,12 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   config["initial_rest_s"] = o.initial_rest;
   config["min_rest_s"] = o.min_rest;
   config["refine_gyro_bias"] = o.refine_gyro_bias;
+  auto range = [](double lo, double hi) {
+    return std::isfinite(lo) ? Json::array({lo, hi}) : Json(nullptr);
+  };
+  config["accel_range"] = range(o.accel_min, o.accel_max);
+  config["gyro_range"] = range(o.gyro_min, o.gyro_max);
+  config["nominal_rate_hz"] = o.nominal_rate_hz > 0 ? Json(o.nominal_rate_hz) : Json(nullptr);
   config["from_files"] = o.from_files;
   j["configuration"] = config;
 
@@ -186,6 +204,9 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
                      {"coarsenings", run.coarsenings},
                      {"rests_too_short", run.rests_too_short},
                      {"moves_dropped", run.moves_dropped}};
+  Json stream = Json::object();  // the calibrator's counts, every kind
+  for (const StreamCount& c : run.stream_counts) stream[c.key] = c.count;
+  j["stream"] = stream;
   auto params = [](const char* const* names, const auto& p, const auto& sd, int n) {
     Json out;
     for (int k = 0; k < n; ++k) {
@@ -351,6 +372,112 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
   table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
         run.gyro_ok);
   return true;
+}
+
+namespace {
+
+// The whole file ("-": stdin). False, with the reason, if it cannot be read.
+bool read_bytes(const std::string& path, std::vector<std::uint8_t>& out, std::string& error) {
+  std::FILE* f = path == "-" ? stdin : std::fopen(path.c_str(), "rb");
+  if (f == nullptr) {
+    error = std::strerror(errno);
+    return false;
+  }
+  std::uint8_t buf[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.insert(out.end(), buf, buf + n);
+  const bool ok = std::ferror(f) == 0;
+  if (!ok) error = std::strerror(errno);
+  if (f != stdin) std::fclose(f);
+  return ok;
+}
+
+void print_record(const CalibrationRecord& r, const std::string& path, std::size_t length,
+                  std::size_t file_size, std::FILE* out) {
+  const Calibration<float>& c = r.calibration;
+  static const char* const kQuality[4] = {"none", "poor", "fair", "good"};
+  std::fprintf(out, "imucal record %s: %zu bytes, format version %u, CRC-32 correct\n",
+               path.c_str(), length, static_cast<unsigned>(r.version));
+  if (file_size > length)
+    std::fprintf(out, "         the %zu bytes after it ignored (as in a flash slot)\n",
+                 file_size - length);
+  std::fprintf(out, "device   id %lu (0x%08lx), sensor id %lu (0x%08lx)\n",
+               static_cast<unsigned long>(r.device_id), static_cast<unsigned long>(r.device_id),
+               static_cast<unsigned long>(r.sensor_id), static_cast<unsigned long>(r.sensor_id));
+  const bool has_accel = (r.parts & kRecordAccel) != 0, has_gyro = (r.parts & kRecordGyro) != 0;
+  std::fprintf(out, "parts    %s%s%s\n", has_accel ? "accelerometer" : "",
+               has_accel && has_gyro ? ", " : "", has_gyro ? "gyroscope" : "");
+  if (r.unknown_sections > 0)
+    std::fprintf(out, "         %d section(s) of a newer format skipped\n", r.unknown_sections);
+  std::fprintf(out, "rate     %s (measured over the initial rest)\n",
+               c.sample_rate_hz > 0 ? fmt("%.2f Hz", static_cast<double>(c.sample_rate_hz)).c_str()
+                                    : "unknown");
+  std::fprintf(
+      out, "temp     %s\n",
+      c.has_temperature
+          ? fmt("%.2f deg C (mean at calibration)", static_cast<double>(c.temperature_c)).c_str()
+          : "unknown");
+  if (has_accel) {
+    const AccelCalibration<float>& a = c.accel;
+    std::array<double, 9> p{}, sd{};
+    for (int k = 0; k < 9; ++k) {
+      p[static_cast<std::size_t>(k)] = static_cast<double>(a.params(k));
+      sd[static_cast<std::size_t>(k)] = static_cast<double>(a.sigma(k));
+    }
+    std::fprintf(out, "\naccelerometer  %s\n  %d poses\n", kAccelModel, a.poses);
+    print_params(out, kAccelNames, p.data(), sd.data(), 9, 3, "raw", "m/s^2");
+    std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: %s m/s^2\n",
+                 fmt("%.5f", static_cast<double>(a.residual_rms)).c_str());
+  }
+  if (has_gyro) {
+    const GyroCalibration<float>& g = c.gyro;
+    std::array<double, 12> p{}, sd{};
+    for (int k = 0; k < 12; ++k) {
+      p[static_cast<std::size_t>(k)] = static_cast<double>(g.params(k));
+      sd[static_cast<std::size_t>(k)] = static_cast<double>(g.sigma(k));
+    }
+    std::fprintf(out, "\ngyroscope      %s\n  %d moves, bias %s\n", kGyroModel, g.moves,
+                 g.bias_refined ? "refined" : "from the initial rest");
+    print_params(out, kGyroNames, p.data(), sd.data(), 12, 6, "raw", "rad/s");
+    const double rms = static_cast<double>(g.residual_rms);
+    std::fprintf(out, "  residual per move (sine of the gravity angle), RMS: %s (%s deg)\n",
+                 fmt("%.3e", rms).c_str(),
+                 fmt("%.3f", std::asin(std::min(rms, 1.0)) * kDeg).c_str());
+  }
+  std::fprintf(out, "\nquality  %s\n", kQuality[static_cast<int>(c.quality) & 3]);
+  std::fprintf(out,
+               "raw: the unit the recording was calibrated in (the record does not name it); b "
+               "is added to the raw reading\n");
+}
+
+}  // namespace
+
+int record_command(const std::vector<std::string>& args) {
+  if (args.size() != 1 || (args[0].size() > 1 && args[0][0] == '-')) {
+    std::fprintf(stderr,
+                 "imucal record: give one record file (or - for stdin): imucal record FILE\n");
+    return 2;
+  }
+  const std::string& path = args[0];
+  std::vector<std::uint8_t> bytes;
+  std::string error;
+  if (!read_bytes(path, bytes, error)) {
+    std::fprintf(stderr, "imucal: cannot read %s: %s\n", path.c_str(), error.c_str());
+    return 2;
+  }
+  static const std::uint8_t kNothing = 0;  // decode_record refuses a null pointer
+  const std::uint8_t* data = bytes.empty() ? &kNothing : bytes.data();
+  CalibrationRecord record;
+  std::size_t offset = 0;
+  const Status st = decode_record(data, bytes.size(), record, &offset);
+  if (st != Status::kOk) {
+    std::fprintf(stderr, "imucal: %s: %s, at byte %zu (of %zu)\n", path.c_str(), to_string(st),
+                 offset, bytes.size());
+    return 1;
+  }
+  const std::size_t length = static_cast<std::size_t>(bytes[6] | (bytes[7] << 8));
+  print_record(record, path, length, bytes.size(), stdout);
+  return 0;
 }
 
 }  // namespace imucal::cli

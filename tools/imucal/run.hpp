@@ -33,10 +33,14 @@ struct Options {
   double gravity = kStandardGravity;  // local gravity, m/s^2
   double initial_rest = 10;           // s
   double min_rest = 1;                // s
+  // Full scale in raw units: a reading at or beyond a limit is saturated (NaN: not given).
+  double accel_min = kNaN, accel_max = kNaN, gyro_min = kNaN, gyro_max = kNaN;
+  double nominal_rate_hz = 0;  // the configured sample rate (0: not checked)
   bool refine_gyro_bias = false;
   bool use_double = false;  // the double reference instead of float (device)
   bool quiet = false;       // no progress display
-  std::string json_path, header_path, svg_path, truth_path;
+  std::string json_path, header_path, svg_path, truth_path, record_path;
+  std::uint32_t device_id = 0, sensor_id = 0;  // for the record
   std::vector<std::string> command_line_keys;  // the settings given on the command line
   std::vector<std::string> from_files;         // "key=value (file:line)" read from the input
 };
@@ -70,6 +74,13 @@ struct StreamEvent {
   double first_t = 0;  // s, input time of the first
 };
 
+// One kind of the calibrator's stream counts (Progress::stream).
+struct StreamCount {
+  const char* name;  // short, for the summary: "accel saturated"
+  const char* key;   // for the JSON: "accel_saturated"
+  long count = 0;
+};
+
 struct Run {
   std::string scalar;  // "float" or "double"
   // Input.
@@ -78,7 +89,8 @@ struct Run {
   double t_first = 0, t_last = 0, rate_hz = 0;
   std::vector<std::string> diagnostics;  // the first ones, "file:line:column: message"
   long diagnostic_count = 0;
-  std::vector<StreamEvent> events;  // what the calibrator said about the stream
+  std::vector<StreamEvent> events;         // what the calibrator said about the stream
+  std::vector<StreamCount> stream_counts;  // what it counted, every kind (zeros too)
   // Collection.
   int poses = 0, moves = 0, segments = 0, coarsenings = 0, rests_too_short = 0, moves_dropped = 0,
       faces_covered = 0;
@@ -106,6 +118,9 @@ struct Run {
   bool usable = false;    // both sensors calibrated (quality fair or good)
   std::vector<PoseResult> pose_list;
   std::vector<MoveResult> move_list;
+  // The device's calibration record (record.hpp), if asked for and usable; else why not.
+  std::vector<std::uint8_t> record;
+  std::string record_error;
 };
 
 extern const char* const kAccelNames[9];
