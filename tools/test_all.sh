@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Every test: set up, check formatting, then build and run the test suite on the host and,
-# cross-built, on Cortex-M4F, M7 and M33 under qemu-system-arm (ctest with the emulator). The
-# Arm builds also prove "no heap" at link time and print sizes; instruction counts follow.
+# Every test: set up, check formatting, then build and run the test suite on the host (plain,
+# then with ASan + UBSan) and, cross-built, on Cortex-M4F, M7 and M33 under qemu-system-arm
+# (ctest with the emulator). The Arm builds also prove "no heap" at link time and print sizes;
+# instruction counts follow.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/setup_debian.sh
@@ -13,7 +14,9 @@ git ls-files '*.hpp' '*.cpp' '*.c' | xargs clang-format --dry-run -Werror
 require_xsens=OFF
 [ -f ../shared/data/xsens/xsens_acc.mat ] && require_xsens=ON
 
-for preset in host m4f m7 m33; do
+# host-asan: the host tests again under AddressSanitizer and UndefinedBehaviorSanitizer (leaks
+# included; the first finding aborts the test).
+for preset in host host-asan m4f m7 m33; do
   echo "== $preset: configure, build, test"
   cmake --preset "$preset" -DIMUCAL_REQUIRE_XSENS=$require_xsens >/dev/null
   log="build/$preset/build.log"

@@ -527,7 +527,12 @@ class Calibrator {
     Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero(), acc_sq = Vector3<Scalar>::Zero();
     Vector3<Scalar> gyro_sum = Vector3<Scalar>::Zero(), gyro_sq = Vector3<Scalar>::Zero();
     // Quarter sums, to see a drift of the means (the unit moved during the initial rest).
-    Vector3<Scalar> acc_q[4] = {}, gyro_q[4] = {};
+    // Spelled out: `= {}` default-constructs Eigen vectors, which leaves them uninitialised (a
+    // -O2 sanitizer build's -Wuninitialized found the quarter sums starting from garbage).
+    Vector3<Scalar> acc_q[4] = {Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero(),
+                                Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero()};
+    Vector3<Scalar> gyro_q[4] = {Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero(),
+                                 Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero()};
     std::uint32_t n_q[4] = {};
   };
 
