@@ -8,23 +8,13 @@
 
 #include "imucal/corrector.hpp"
 #include "imucal/sim/random.hpp"
+#include "support/example_calibration.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {
 namespace {
 
-Calibration<double> xsens_like() {
-  Calibration<double> c;
-  c.accel.params << 0.0021, -0.0013, 0.0007, 0.00241, 0.00239, 0.00243, -32990.0, -32770.5,
-      -33120.25;
-  c.accel.poses = 41;
-  c.accel.status = Status::kConvergedCost;
-  c.gyro.params << 0.003, -0.002, 0.001, -0.004, 0.0025, -0.0015, 2.1e-4, 2.09e-4, 2.11e-4,
-      -32750.0, -32800.5, -32690.0;
-  c.gyro.moves = 40;
-  c.gyro.status = Status::kConvergedStep;
-  return c;
-}
+Calibration<double> xsens_like() { return test::example_calibration(); }
 
 TEST(Corrector, MatchesTheModelToFloatRounding) {
   const Calibration<double> c = xsens_like();

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "little_endian.hpp"
+
 namespace imucal {
 namespace {
 
@@ -57,13 +59,9 @@ class Writer {
   std::size_t pos_ = 0;
 };
 
-std::uint16_t load_u16(const std::uint8_t* p) {
-  return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
-}
-std::uint32_t load_u32(const std::uint8_t* p) {
-  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
-         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
-}
+using detail::load_u16;
+using detail::load_u32;
+
 float load_f32(const std::uint8_t* p) {
   const std::uint32_t bits = load_u32(p);
   float v;
@@ -170,16 +168,29 @@ void read_info(Reader& in, Calibration<float>& c) {
   in.expect(sample_rate_ok(c.sample_rate_hz), 4);
 }
 
+// A sensor's parameters (the three from first_scale on checked as scales), sigmas, residual.
+template <class V>
+void read_block(Reader& in, V& params, V& sigma, float& rms, int first_scale,
+                bool (*scale_ok)(float)) {
+  for (int i = 0; i < params.size(); ++i) {
+    params(i) = in.finite_f32();
+    if (i >= first_scale && i < first_scale + 3) in.expect(scale_ok(params(i)), 4);
+  }
+  for (int i = 0; i < sigma.size(); ++i) sigma(i) = in.non_negative_f32();
+  rms = in.non_negative_f32();
+}
+template <class V>
+void write_block(Writer& w, const V& params, const V& sigma, float rms) {
+  for (int i = 0; i < params.size(); ++i) w.f32(params(i));
+  for (int i = 0; i < sigma.size(); ++i) w.f32(sigma(i));
+  w.f32(rms);
+}
+
 void read_accel(Reader& in, AccelCalibration<float>& a) {
   a.poses = in.u16();
   in.expect(a.poses >= kAccelMinPoses, 2);
   in.zero_u16();
-  for (int i = 0; i < kAccelParams; ++i) {
-    a.params(i) = in.finite_f32();
-    if (i >= kScaleX && i <= kScaleZ) in.expect(accel_scale_ok(a.params(i)), 4);
-  }
-  for (int i = 0; i < kAccelParams; ++i) a.sigma(i) = in.non_negative_f32();
-  a.residual_rms = in.non_negative_f32();
+  read_block(in, a.params, a.sigma, a.residual_rms, kScaleX, accel_scale_ok);
   a.status = Status::kOk;
 }
 
@@ -190,12 +201,7 @@ void read_gyro(Reader& in, GyroCalibration<float>& g) {
   in.expect((flags & ~1u) == 0, 1);
   g.bias_refined = (flags & 1u) != 0;
   in.zero_u8();
-  for (int i = 0; i < kGyroParams; ++i) {
-    g.params(i) = in.finite_f32();
-    if (i >= kGyroScaleX && i <= kGyroScaleZ) in.expect(gyro_scale_ok(g.params(i)), 4);
-  }
-  for (int i = 0; i < kGyroParams; ++i) g.sigma(i) = in.non_negative_f32();
-  g.residual_rms = in.non_negative_f32();
+  read_block(in, g.params, g.sigma, g.residual_rms, kGyroScaleX, gyro_scale_ok);
   g.status = Status::kOk;
 }
 
@@ -300,9 +306,7 @@ Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t 
     w.u16(kAccelBytes);
     w.u16(static_cast<std::uint16_t>(a.poses));
     w.u16(0);
-    for (int i = 0; i < kAccelParams; ++i) w.f32(a.params(i));
-    for (int i = 0; i < kAccelParams; ++i) w.f32(a.sigma(i));
-    w.f32(a.residual_rms);
+    write_block(w, a.params, a.sigma, a.residual_rms);
   }
   if (r.parts & kRecordGyro) {
     const GyroCalibration<float>& g = c.gyro;
@@ -312,9 +316,7 @@ Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t 
     w.u16(static_cast<std::uint16_t>(g.moves));
     w.u8(g.bias_refined ? 1 : 0);
     w.u8(0);
-    for (int i = 0; i < kGyroParams; ++i) w.f32(g.params(i));
-    for (int i = 0; i < kGyroParams; ++i) w.f32(g.sigma(i));
-    w.f32(g.residual_rms);
+    write_block(w, g.params, g.sigma, g.residual_rms);
   }
   const std::size_t n = w.pos() + kCrcBytes;
   if (n > capacity || n > kRecordMaxBytes) return Status::kCapacityExceeded;

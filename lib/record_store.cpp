@@ -3,16 +3,14 @@
 
 #include <cstring>
 
+#include "little_endian.hpp"
+
 namespace imucal {
 namespace {
 
-std::uint32_t load_u32(const std::uint8_t* p) {
-  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
-         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
-}
-void store_u32(std::uint8_t* p, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu);
-}
+using detail::load_u32;
+using detail::store_u32;
+
 // a was written after b (sequence numbers wrap: serial-number arithmetic).
 bool later(std::uint32_t a, std::uint32_t b) { return static_cast<std::int32_t>(a - b) > 0; }
 
@@ -27,7 +25,7 @@ Status RecordStore::check_geometry() const {
   return Status::kOk;
 }
 
-Status RecordStore::read_slot(int slot, CalibrationRecord* out) {
+Status RecordStore::read_slot(int slot, CalibrationRecord& out) {
   const std::uint32_t base = slot_offset(slot);
   Slot& s = slots_[slot];
   s = Slot{};
@@ -35,34 +33,34 @@ Status RecordStore::read_slot(int slot, CalibrationRecord* out) {
   if (r != Status::kOk) return s.status = Status::kStorageError;
   const std::uint32_t seq = load_u32(buf_), check = load_u32(buf_ + 4);
   if (seq != ~check) return s.status = Status::kNoRecord;  // erased, or the commit was cut
-  CalibrationRecord record;
-  s.status = decode_record(buf_ + kSlotHeaderBytes, kRecordMaxBytes, record);
-  if (s.status != Status::kOk) return s.status;
-  s.sequence = seq;
-  if (out != nullptr) *out = record;
-  return Status::kOk;
+  s.status = decode_record(buf_ + kSlotHeaderBytes, kRecordMaxBytes, out);  // out kept on failure
+  if (s.status == Status::kOk) s.sequence = seq;
+  return s.status;
 }
 
-int RecordStore::scan() {
+int RecordStore::scan(CalibrationRecord* newest_record) {
   int newest = -1;
+  CalibrationRecord record;
   for (int k = 0; k < 2; ++k) {
-    const Status s = read_slot(k, nullptr);
+    const Status s = read_slot(k, record);
     if (s == Status::kStorageError) return -2;
     if (s != Status::kOk) continue;
-    if (newest < 0 || later(slots_[k].sequence, slots_[newest].sequence)) newest = k;
+    if (newest < 0 || later(slots_[k].sequence, slots_[newest].sequence)) {
+      newest = k;
+      if (newest_record != nullptr) *newest_record = record;
+    }
   }
   return newest;
 }
 
 Status RecordStore::load(CalibrationRecord& out) {
   if (check_geometry() != Status::kOk) return Status::kInvalidArgument;
-  const int newest = scan();
+  CalibrationRecord newest_record;
+  const int newest = scan(&newest_record);
   if (newest == -2) return Status::kStorageError;
   if (newest < 0) return Status::kNoRecord;
-  const Slot other = slots_[1 - newest];
-  const Status s = read_slot(newest, &out);  // the buffer holds the last slot read: read again
-  slots_[1 - newest] = other;
-  return s;
+  out = newest_record;
+  return Status::kOk;
 }
 
 Status RecordStore::program_range(std::uint32_t offset, const std::uint8_t* data,
@@ -82,7 +80,7 @@ Status RecordStore::program_range(std::uint32_t offset, const std::uint8_t* data
 
 Status RecordStore::save(const CalibrationRecord& record) {
   if (check_geometry() != Status::kOk) return Status::kInvalidArgument;
-  const int newest = scan();
+  const int newest = scan(nullptr);
   if (newest == -2) return Status::kStorageError;
   const int target = newest < 0 ? 0 : 1 - newest;
   const std::uint32_t seq = newest < 0 ? 1u : slots_[newest].sequence + 1u;

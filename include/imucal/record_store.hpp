@@ -50,9 +50,10 @@ class RecordStore {
     std::uint32_t sequence = 0;
   };
 
-  // Reads both slots; returns the index of the newest valid one, or -1 (kStorageError: -2).
-  int scan();
-  Status read_slot(int slot, CalibrationRecord* out);
+  // Reads both slots; returns the index of the newest valid one (its record into
+  // *newest_record if given), or -1 (kStorageError: -2).
+  int scan(CalibrationRecord* newest_record);
+  Status read_slot(int slot, CalibrationRecord& out);  // out: the slot's record if kOk
   Status program_range(std::uint32_t offset, const std::uint8_t* data, std::uint32_t size);
   std::uint32_t slot_offset(int slot) const { return slot == 0 ? 0 : slot_size(); }
   std::uint32_t slot_size() const { return flash_.geometry().size / 2; }
