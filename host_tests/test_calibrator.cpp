@@ -118,6 +118,42 @@ TEST(CalibratorStream, BumpDuringARestGivesTwoPosesAndAShortMove) {
   expect_within_3_sigma(cal.calibration(), r.rec);
 }
 
+// Each pose is also handed out as a rest summary (last_rest(), for the temperature fit): the
+// same accelerometer mean as the pose, the gyro mean within its noise of the true raw rate at
+// rest (-b), and the pose window's mean temperature.
+TEST(CalibratorStream, EveryPoseIsSummarisedAsARest) {
+  SimRun r = make_run(23);
+  Calibrator<float> cal(settings_for<float>(r.sc, false));
+  auto temperature = [](double t) { return 20.0 + 0.05 * t; };  // a warming board, 3 degC/min
+  int seen = 0, checked = 0;
+  for (std::size_t i = 0; i < r.rec.samples.size(); ++i) {
+    ImuSample<float> s = to_sample<float>(r.rec.samples[i]);
+    s.temperature = static_cast<float>(temperature(r.rec.samples[i].t));
+    ASSERT_EQ(cal.add(s), Status::kOk);
+    const int poses = cal.progress().poses;
+    if (poses == seen) continue;
+    ASSERT_EQ(poses, seen + 1);
+    seen = poses;
+    const RestSummary<float>& rest = cal.last_rest();
+    const int k = poses - 1;
+    EXPECT_EQ(rest.accel_mean, cal.poses()[k].mean) << k;
+    EXPECT_EQ(rest.samples, cal.poses()[k].samples) << k;
+    const double t0 = cal.pose_begin_us(k) * 1e-6, t1 = cal.pose_end_us(k) * 1e-6;
+    EXPECT_NEAR(rest.duration_s, t1 - t0, 0.02) << k;
+    // The temperature rises linearly: the pose's mean is the one at its middle (within the
+    // rate's jitter and float rounding of 20-30 degC readings).
+    ASSERT_TRUE(rest.has_temperature) << k;
+    EXPECT_NEAR(rest.temperature_c, temperature(0.5 * (t0 + t1)), 2e-3) << k;
+    // Raw gyro at rest is -b plus white noise: 5 sigma of the mean of n samples.
+    const double sigma_mean = r.sc.gyro.noise / std::sqrt(static_cast<double>(rest.samples));
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(rest.gyro_mean(a), -r.rec.gyro.params(kGyroBiasX + a), 5.0 * sigma_mean)
+          << "pose " << k << " axis " << a;
+    ++checked;
+  }
+  EXPECT_EQ(checked, kPoses);  // the last rest becomes a pose only when the stream ends
+}
+
 // Rests shorter than min_rest_seconds are not poses: their samples join the move around them,
 // which stays one valid move (the chain of residuals is unbroken).
 TEST(CalibratorStream, RestsTooShortJoinTheMove) {

@@ -84,6 +84,17 @@ const char* to_string(Status s) {
       return "flash storage error";
     case Status::kStorageVerifyFailed:
       return "flash verify failed (read back differs)";
+    case Status::kTooFewSamples:
+      return "too few samples";
+    case Status::kPoorCoverage:
+      return "poor coverage of directions (turn the unit through more orientations)";
+    case Status::kFieldImplausible:
+      return "field strength implausible for the Earth's field (magnetic disturbance or wrong "
+             "unit)";
+    case Status::kFitPoor:
+      return "fit error too large (magnetic disturbance nearby, or motion too fast)";
+    case Status::kTemperatureSpanSmall:
+      return "temperatures span too little for a slope";
   }
   return "unknown status";
 }

@@ -41,6 +41,7 @@
 #include "imucal/gyro_segment.hpp"
 #include "imucal/pose_store.hpp"
 #include "imucal/status.hpp"
+#include "imucal/temperature_model.hpp"
 
 namespace imucal {
 
@@ -129,8 +130,6 @@ enum class Hint : std::uint8_t {
   kNone,
 };
 
-enum class Quality : std::uint8_t { kNone, kPoor, kFair, kGood };
-
 // What the stream did wrong, each counted by kind (Progress::stream). Samples refused are also
 // in Progress::samples_refused; what was collected before any of these is kept.
 struct StreamCounts {
@@ -218,6 +217,7 @@ class Calibrator {
     counts_ = StreamCounts{};
     temp_ref_ = temp_sum_ = temp_comp_ = Scalar(0);
     temp_n_ = 0;
+    last_rest_ = RestSummary<Scalar>{};
     frozen_time_ = Scalar(0);
     frozen_ = false;
     poses_.clear();
@@ -466,6 +466,9 @@ class Calibrator {
     return true;
   }
   const CalibratorSettings<Scalar>& settings() const { return settings_; }
+  // The latest pose (progress().poses counts them) as a rest: mean raw readings, temperature,
+  // length. Feed it to a TemperatureFit (temperature_fit.hpp) for a bias-vs-temperature model.
+  const RestSummary<Scalar>& last_rest() const { return last_rest_; }
 
  private:
   enum class SolveStage : std::uint8_t { kAccel, kGyro };
@@ -481,6 +484,8 @@ class Calibrator {
     Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
     Vector3<Scalar> acc_comp = Vector3<Scalar>::Zero();  // low part: the sum is sum + comp
     Scalar path = Scalar(0);
+    Scalar temp_sum = Scalar(0);  // temperatures relative to the stream's first one
+    std::uint32_t temp_n = 0;     // samples that carried a temperature
     std::uint32_t n = 0;
     std::uint32_t t_begin = 0;
     std::uint32_t t_end = 0;
@@ -492,6 +497,8 @@ class Calibrator {
       acc_sum.setZero();
       acc_comp.setZero();
       path = Scalar(0);
+      temp_sum = Scalar(0);
+      temp_n = 0;
       n = 0;
       long_enough = false;
     }
@@ -514,6 +521,8 @@ class Calibrator {
         for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), add(i));
       }
       path += later.path;
+      temp_sum += later.temp_sum;
+      temp_n += later.temp_n;
       if (n == 0) t_begin = later.t_begin;
       n += later.n;
       t_end = later.t_end;
@@ -694,6 +703,9 @@ class Calibrator {
     rest_.acc_sum = init_.acc_sum;
     rest_.long_enough = true;  // initial_rest_seconds >= min_rest_seconds
     rest_.n = init_.n;
+    // The temperatures so far (those of a restarted initial rest too: close enough for a mean).
+    rest_.temp_sum = temp_sum_ + temp_comp_;
+    rest_.temp_n = temp_n_;
     rest_.t_begin = init_.t_begin;
     rest_.t_end = init_.t_end;
     rest_open_ = true;
@@ -754,6 +766,10 @@ class Calibrator {
     block_.seg.add(u_mid, dt);
     block_.acc_sum += s.acc - block_.acc_ref;
     block_.path += step_path;
+    if (s.temperature == s.temperature) {
+      block_.temp_sum += s.temperature - temp_ref_;
+      ++block_.temp_n;
+    }
     ++block_.n;
     block_.t_end = s.t_us;
     if (s.t_us - block_.t_begin >= block_us_ ||
@@ -864,6 +880,7 @@ class Calibrator {
       return;
     }
     const int index = poses_.size() - 1;
+    summarise_rest();
     pose_time_[index][0] = rest_.t_begin;
     pose_time_[index][1] = rest_.t_end;
     if (chain_from_ >= 0 && seg_count_ > move_first_) {
@@ -880,6 +897,25 @@ class Calibrator {
     if (phase_ == Phase::kCollecting && poses_.size() >= settings_.target_poses && faces() == 0x3f)
       phase_ = Phase::kReady;
     if (poses_.full()) phase_ = Phase::kReady;
+  }
+
+  // The latest pose as a RestSummary (for the temperature fit): the gyro mean from the rest's
+  // segment statistics (alpha / duration is the time-weighted mean of u = w + b0). The initial
+  // rest's samples are not in the segment but their u averages 0 by definition of b0: dividing
+  // by the whole span counts them. (The span wraps after 71.6 min; the segment's duration not.)
+  void summarise_rest() {
+    RestSummary<Scalar>& r = last_rest_;
+    r.accel_mean = rest_.acc_mean();
+    const Scalar span = static_cast<Scalar>(rest_.t_end - rest_.t_begin) * Scalar(1e-6);
+    const Scalar d = rest_.seg.duration > span ? rest_.seg.duration : span;
+    r.gyro_mean =
+        d > Scalar(0) ? Vector3<Scalar>(rest_.seg.alpha / d - b0_) : Vector3<Scalar>(-b0_);
+    r.has_temperature = rest_.temp_n > 0;
+    r.temperature_c = r.has_temperature
+                          ? temp_ref_ + rest_.temp_sum / static_cast<Scalar>(rest_.temp_n)
+                          : Scalar(0);
+    r.samples = rest_.n;
+    r.duration_s = d;
   }
 
   // Appends a block's gyro statistics to the move in progress, merged into the last segment
@@ -1146,6 +1182,7 @@ class Calibrator {
   std::uint32_t rate_n_ = 0;    // and its samples
   StreamCounts counts_{};
   Scalar temp_ref_ = Scalar(0), temp_sum_ = Scalar(0), temp_comp_ = Scalar(0);
+  RestSummary<Scalar> last_rest_{};
   std::uint32_t temp_n_ = 0;
   std::uint32_t t_prev_ = 0;
   Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();

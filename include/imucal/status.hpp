@@ -52,7 +52,16 @@ enum class Status : std::uint8_t {
   kNoRecord,             // no valid record in the store (empty, erased or both slots corrupt)
   kStorageError,         // the flash port failed (read, program, erase, or power lost)
   kStorageVerifyFailed,  // the record read back differs from the one written
+  // Magnetometer (mag_calibration.hpp) and temperature (temperature_fit.hpp) fits.
+  kTooFewSamples,         // fewer samples (or rests) than the fit needs
+  kPoorCoverage,          // the directions held do not cover enough of the sphere
+  kFieldImplausible,      // fitted field strength outside the configured Earth-field bounds
+  kFitPoor,               // the fit's residual error is above the configured limit
+  kTemperatureSpanSmall,  // the rests' temperatures span too little for a slope
 };
+
+// How far to trust a calibration, from its sigmas, residuals and coverage.
+enum class Quality : std::uint8_t { kNone, kPoor, kFair, kGood };
 
 // True for the statuses that mean "this estimate is usable".
 constexpr bool succeeded(Status s) {
