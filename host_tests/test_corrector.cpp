@@ -106,5 +106,99 @@ TEST(Corrector, FromADecodedRecord) {
   EXPECT_EQ(from_record.parts(), kRecordAccel | kRecordGyro);
 }
 
+// The magnetometer: S (m + h), within float rounding of the model in double.
+TEST(Corrector, MagnetometerIsTheModel) {
+  const MagCalibration<double> m = test::example_mag();
+  Corrector<float> corr;
+  ASSERT_EQ(corr.set(xsens_like()), Status::kOk);
+  ASSERT_EQ(corr.set_mag(m), Status::kOk);
+  EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro | kRecordMag);
+  sim::Random rng(4);
+  double worst = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    Vector3<double> raw;
+    for (int i = 0; i < 3; ++i) raw(i) = std::round(rng.uniform(-2000.0, 2000.0));
+    worst =
+        std::max(worst, (corr.mag(raw.cast<float>()).cast<double>() - mag_apply(m, raw)).norm());
+  }
+  EXPECT_LT(worst, 400.0 * 6e-8 * 8);  // |S m| up to ~400 uT, a few float roundings
+  MagCalibration<double> bad = m;
+  bad.status = Status::kPoorCoverage;
+  Corrector<float> other;
+  EXPECT_EQ(other.set_mag(bad), Status::kPoorCoverage);  // refused with the fit's reason
+  EXPECT_EQ(other.parts(), 0);
+}
+
+// Biases follow the temperature model: at T the offsets are M b(T); outside the fitted range
+// they stay at its edge (no extrapolation); a NaN temperature keeps the last ones.
+TEST(Corrector, BiasesFollowTheTemperature) {
+  const Calibration<double> c = xsens_like();
+  const TemperatureModel<double> t = test::example_temperature(2);
+  Corrector<double> corr;
+  ASSERT_EQ(corr.set(c), Status::kOk);
+  EXPECT_EQ(corr.set_temperature(30.0), Status::kNotStarted);  // no model yet
+  ASSERT_EQ(corr.set_temperature_model(t), Status::kOk);
+  EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro | kRecordTemperature);
+  EXPECT_EQ(corr.temperature(), t.reference_c);
+  auto expected = [&](double temp, const Vector3<double>& a_raw, const Vector3<double>& w_raw,
+                      Vector3<double>& a, Vector3<double>& w) {
+    AccelVector<double> pa = c.accel.params;
+    GyroVector<double> pg = c.gyro.params;
+    const Vector3<double> ba = t.accel.at(temp, t.reference_c), bg = t.gyro.at(temp, t.reference_c);
+    for (int i = 0; i < 3; ++i) {
+      pa(kBiasX + i) = ba(i);
+      pg(kGyroBiasX + i) = bg(i);
+    }
+    a = accel_apply(pa, a_raw);
+    w = gyro_apply(pg, w_raw);
+  };
+  const Vector3<double> a_raw(33000.0, 30000.0, 36000.0), w_raw(32800.0, 32700.0, 32760.0);
+  for (double temp : {5.0, 12.5, 24.5, 38.0, 45.0}) {
+    ASSERT_EQ(corr.set_temperature(temp), Status::kOk);
+    Vector3<double> a, w;
+    expected(temp, a_raw, w_raw, a, w);
+    EXPECT_LT((corr.accel(a_raw) - a).norm(), 1e-9) << temp;
+    EXPECT_LT((corr.gyro(w_raw) - w).norm(), 1e-9) << temp;
+  }
+  // Clamped to [5, 45] degC.
+  ASSERT_EQ(corr.set_temperature(80.0), Status::kOk);
+  EXPECT_EQ(corr.temperature(), 45.0);
+  Vector3<double> a45, w45;
+  expected(45.0, a_raw, w_raw, a45, w45);
+  EXPECT_LT((corr.accel(a_raw) - a45).norm(), 1e-9);
+  EXPECT_EQ(corr.set_temperature(std::numeric_limits<double>::quiet_NaN()),
+            Status::kNonFiniteInput);
+  EXPECT_EQ(corr.temperature(), 45.0);
+  EXPECT_LT((corr.accel(a_raw) - a45).norm(), 1e-9);
+  // The slope matters: 45 degC and 5 degC differ by the model, not by rounding.
+  ASSERT_EQ(corr.set_temperature(5.0), Status::kOk);
+  EXPECT_GT((corr.accel(a_raw) - a45).norm(), 1e-3);
+}
+
+// A record with every part sets every part, and the float corrector follows the temperature.
+TEST(Corrector, EveryPartFromARecord) {
+  CalibrationRecord r;
+  const MagCalibration<double> m = test::example_mag();
+  const TemperatureModel<double> t = test::example_temperature(1);
+  ASSERT_EQ(make_record(xsens_like(), 1, 2, r, &m, &t), Status::kOk);
+  std::uint8_t bytes[kRecordMaxBytes];
+  std::size_t n = 0;
+  ASSERT_EQ(encode_record(r, bytes, sizeof bytes, &n), Status::kOk);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(bytes, n, back), Status::kOk);
+  Corrector<float> corr;
+  ASSERT_EQ(corr.set(back), Status::kOk);
+  EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro | kRecordMag | kRecordTemperature);
+  const Vector3<float> w(32800.0f, 32700.0f, 32760.0f);
+  ASSERT_EQ(corr.set_temperature(34.5f), Status::kOk);  // 10 degC above the reference
+  const Vector3<float> warm = corr.gyro(w);
+  ASSERT_EQ(corr.set_temperature(24.5f), Status::kOk);
+  const Vector3<float> ref = corr.gyro(w);
+  // 10 degC times the gyro slope, through M (rad/s per count).
+  const Vector3<double> expected_change =
+      gyro_matrix<double>(xsens_like().gyro.params) * (10.0 * t.gyro.b1);
+  EXPECT_LT(((warm - ref).cast<double>() - expected_change).norm(), 1e-5);
+}
+
 }  // namespace
 }  // namespace imucal

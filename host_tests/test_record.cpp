@@ -16,10 +16,21 @@ namespace imucal {
 namespace {
 
 using test::example_calibration;
+using test::example_mag;
+using test::example_temperature;
 
 CalibrationRecord example_record() {
   CalibrationRecord r;
   EXPECT_EQ(make_record(example_calibration(), 0x12345678u, 0x00006A68u, r), Status::kOk);
+  return r;
+}
+
+// Every part: accelerometer, gyro, magnetometer and a temperature model of the given order.
+CalibrationRecord full_record(int order) {
+  CalibrationRecord r;
+  const MagCalibration<double> mag = example_mag();
+  const TemperatureModel<double> t = example_temperature(order);
+  EXPECT_EQ(make_record(example_calibration(), 0x12345678u, 0x00006A68u, r, &mag, &t), Status::kOk);
   return r;
 }
 
@@ -61,6 +72,39 @@ void expect_same(const CalibrationRecord& a, const CalibrationRecord& b) {
     EXPECT_EQ(x.gyro.residual_rms, y.gyro.residual_rms);
     EXPECT_EQ(x.gyro.moves, y.gyro.moves);
     EXPECT_EQ(x.gyro.bias_refined, y.gyro.bias_refined);
+  }
+  if (a.parts & kRecordMag) {
+    const MagCalibration<float>&m = a.mag, &n = b.mag;
+    EXPECT_EQ(m.soft_iron, n.soft_iron);
+    EXPECT_EQ(m.hard_iron, n.hard_iron);
+    EXPECT_EQ(m.hard_iron_sigma, n.hard_iron_sigma);
+    EXPECT_EQ(m.soft_iron_sigma, n.soft_iron_sigma);
+    EXPECT_EQ(m.field_ut, n.field_ut);
+    EXPECT_EQ(m.fit_error_pct, n.fit_error_pct);
+    EXPECT_EQ(m.coverage, n.coverage);
+    EXPECT_EQ(m.samples, n.samples);
+    EXPECT_EQ(m.quality, n.quality);
+    EXPECT_EQ(succeeded(m.alignment_status), succeeded(n.alignment_status));
+    EXPECT_EQ(m.dip_deg, n.dip_deg);
+    EXPECT_EQ(m.dip_sigma_deg, n.dip_sigma_deg);
+  }
+  if (a.parts & kRecordTemperature) {
+    const TemperatureModel<float>&s = a.temperature, &t = b.temperature;
+    EXPECT_EQ(s.order, t.order);
+    EXPECT_EQ(s.reference_c, t.reference_c);
+    EXPECT_EQ(s.min_c, t.min_c);
+    EXPECT_EQ(s.max_c, t.max_c);
+    EXPECT_EQ(s.rests, t.rests);
+    for (const auto* p : {&s.accel, &s.gyro}) {
+      const auto* q = p == &s.accel ? &t.accel : &t.gyro;
+      EXPECT_EQ(succeeded(p->status), succeeded(q->status));
+      EXPECT_EQ(p->b0, q->b0);
+      EXPECT_EQ(p->b1, q->b1);
+      EXPECT_EQ(p->b2, q->b2);
+      EXPECT_EQ(p->b0_sigma, q->b0_sigma);
+      EXPECT_EQ(p->b1_sigma, q->b1_sigma);
+      EXPECT_EQ(p->b2_sigma, q->b2_sigma);
+    }
   }
 }
 
@@ -128,38 +172,75 @@ TEST(Record, Version1BytesStayReadable) {
   EXPECT_EQ(std::memcmp(e.bytes, kVersion1, e.size), 0);
 }
 
-TEST(Record, EverySingleByteCorruptionIsDetected) {
-  const Encoded e = encode(example_record());
-  int cases = 0;
-  for (std::size_t at = 0; at < e.size; ++at) {
-    for (int v = 0; v < 256; ++v) {
-      if (v == e.bytes[at]) continue;
-      Encoded bad = e;
-      bad.bytes[at] = static_cast<std::uint8_t>(v);
-      CalibrationRecord out;
-      out.device_id = 777;
-      std::size_t where = 9999;
-      const Status s = decode_record(bad.bytes, bad.size, out, &where);
-      ++cases;
-      if (s == Status::kOk) {
-        ADD_FAILURE() << "byte " << at << " = " << v << " accepted";
-        return;
-      }
-      EXPECT_EQ(out.device_id, 777u);  // the output is untouched on failure
-      EXPECT_LE(where, e.size);
-    }
+// Every part, both model orders: the sizes record.hpp states, every value back bit for bit.
+TEST(Record, MagnetometerAndTemperatureRoundTrip) {
+  for (int order : {1, 2}) {
+    const CalibrationRecord r = full_record(order);
+    EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro | kRecordMag | kRecordTemperature);
+    const Encoded e = encode(r);
+    EXPECT_EQ(e.size, order == 1 ? 460u : 508u);
+    CalibrationRecord back;
+    ASSERT_EQ(decode_record(e.bytes, e.size, back), Status::kOk);
+    expect_same(r, back);
+    EXPECT_EQ(back.unknown_sections, 0);
   }
-  EXPECT_EQ(cases, static_cast<int>(e.size) * 255);
+  // The magnetometer alone with the two inertial parts: 344 bytes; a temperature model with
+  // only the gyro usable keeps the accelerometer's coefficients out (zeros, not started).
+  CalibrationRecord r;
+  const MagCalibration<double> mag = example_mag();
+  TemperatureModel<double> t = example_temperature(1);
+  t.accel.status = Status::kRankDeficient;
+  ASSERT_EQ(make_record(example_calibration(), 1, 2, r, &mag), Status::kOk);
+  EXPECT_EQ(encode(r).size, 344u);
+  ASSERT_EQ(make_record(example_calibration(), 1, 2, r, &mag, &t), Status::kOk);
+  const Encoded e = encode(r);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(e.bytes, e.size, back), Status::kOk);
+  EXPECT_FALSE(succeeded(back.temperature.accel.status));
+  EXPECT_TRUE(back.temperature.accel.b0.isZero(0.0f));
+  EXPECT_TRUE(succeeded(back.temperature.gyro.status));
+  EXPECT_EQ(back.temperature.gyro.b1, t.gyro.b1.cast<float>());
+  // Unusable parts are left out, not refused.
+  t.gyro.status = Status::kTooFewSamples;
+  MagCalibration<double> bad_mag = mag;
+  bad_mag.status = Status::kPoorCoverage;
+  ASSERT_EQ(make_record(example_calibration(), 1, 2, r, &bad_mag, &t), Status::kOk);
+  EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro);
+}
+
+TEST(Record, EverySingleByteCorruptionIsDetected) {
+  for (const Encoded& e : {encode(example_record()), encode(full_record(2))}) {
+    int cases = 0;
+    for (std::size_t at = 0; at < e.size; ++at) {
+      for (int v = 0; v < 256; ++v) {
+        if (v == e.bytes[at]) continue;
+        Encoded bad = e;
+        bad.bytes[at] = static_cast<std::uint8_t>(v);
+        CalibrationRecord out;
+        out.device_id = 777;
+        std::size_t where = 9999;
+        const Status s = decode_record(bad.bytes, bad.size, out, &where);
+        ++cases;
+        if (s == Status::kOk) {
+          ADD_FAILURE() << "byte " << at << " = " << v << " accepted";
+          return;
+        }
+        EXPECT_EQ(out.device_id, 777u);  // the output is untouched on failure
+        EXPECT_LE(where, e.size);
+      }
+    }
+    EXPECT_EQ(cases, static_cast<int>(e.size) * 255);
+  }
 }
 
 TEST(Record, EveryTruncationIsDetected) {
-  const Encoded e = encode(example_record());
-  for (std::size_t n = 0; n < e.size; ++n) {
-    CalibrationRecord out;
-    std::size_t where = 9999;
-    EXPECT_EQ(decode_record(e.bytes, n, out, &where), Status::kRecordTruncated) << n;
-    EXPECT_EQ(where, n);
-  }
+  for (const Encoded& e : {encode(example_record()), encode(full_record(1))})
+    for (std::size_t n = 0; n < e.size; ++n) {
+      CalibrationRecord out;
+      std::size_t where = 9999;
+      EXPECT_EQ(decode_record(e.bytes, n, out, &where), Status::kRecordTruncated) << n;
+      EXPECT_EQ(where, n);
+    }
   // A length field pointing beyond the bytes given is a truncation too, not a checksum error.
 }
 
@@ -252,6 +333,66 @@ TEST(Record, EveryFieldIsValidatedEvenWithARightChecksum) {
   }
 }
 
+// The magnetometer and temperature sections of the full quadratic record (508 bytes): mag
+// section at 228 (payload 232), temperature section at 340 (payload 344; accelerometer
+// coefficients from 360, the gyro's from 432).
+TEST(Record, MagnetometerAndTemperatureFieldsAreValidated) {
+  const Encoded e = encode(full_record(2));
+  ASSERT_EQ(e.size, 508u);
+  const std::uint32_t nan = 0x7FC00000u, minus_one = 0xBF800000u;
+  const FieldCase cases[] = {
+      {"mag samples 0", 232, 0, 2, Status::kRecordBadField},
+      {"mag quality 4", 234, 4, 1, Status::kRecordBadField},
+      {"mag unknown flag", 235, 2, 1, Status::kRecordBadField},
+      {"soft iron NaN", 236 + 4 * 4, nan, 4, Status::kRecordBadField},
+      {"hard iron sigma negative", 284 + 4, minus_one, 4, Status::kRecordBadField},
+      {"soft iron sigma NaN", 296 + 4 * 5, nan, 4, Status::kRecordBadField},
+      {"field 0 uT", 320, 0, 4, Status::kRecordBadField},
+      {"fit error negative", 324, minus_one, 4, Status::kRecordBadField},
+      {"coverage 1.5", 328, 0x3FC00000u, 4, Status::kRecordBadField},
+      {"dip 100 degrees", 332, 0x42C80000u, 4, Status::kRecordBadField},
+      {"temperature order 3", 344, 3, 1, Status::kRecordBadField},
+      {"temperature flags 0", 345, 0, 1, Status::kRecordBadField},
+      {"temperature unknown flag", 345, 7, 1, Status::kRecordBadField},
+      {"temperature rests 0", 346, 0, 2, Status::kRecordBadField},
+      {"reference temperature NaN", 348, nan, 4, Status::kRecordBadField},
+      {"accel slope NaN", 372 + 4, nan, 4, Status::kRecordBadField},
+      {"gyro sigma negative", 432 + 36 + 8, minus_one, 4, Status::kRecordBadField},
+      {"temperature section too short for its order", 342, 112, 2, Status::kRecordBadLength},
+      {"mag part bit cleared", 16, kRecordAccel | kRecordGyro | kRecordTemperature, 2,
+       Status::kRecordBadField},
+      {"temperature part bit cleared", 16, kRecordAccel | kRecordGyro | kRecordMag, 2,
+       Status::kRecordBadField},
+  };
+  for (const FieldCase& c : cases) {
+    Encoded bad = e;
+    for (int i = 0; i < c.bytes; ++i)
+      bad.bytes[c.at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(c.value >> (8 * i));
+    reseal(bad);
+    CalibrationRecord out;
+    std::size_t where = 9999;
+    EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), c.expected) << c.what;
+    if (c.at != 16) {
+      EXPECT_EQ(where, c.at) << c.what;
+    }
+  }
+  // A mirrored soft iron (det S < 0) is not a calibration: refused at S's first byte.
+  Encoded bad = e;
+  bad.bytes[236 + 3] ^= 0x80;  // S00's sign
+  reseal(bad);
+  CalibrationRecord out;
+  std::size_t where = 0;
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadField);
+  EXPECT_EQ(where, 236u);
+  // The lowest temperature above the highest: refused at the highest.
+  bad = e;
+  const std::uint32_t fifty = 0x42480000u;
+  for (int i = 0; i < 4; ++i) bad.bytes[352 + i] = static_cast<std::uint8_t>(fifty >> (8 * i));
+  reseal(bad);
+  EXPECT_EQ(decode_record(bad.bytes, bad.size, out, &where), Status::kRecordBadField);
+  EXPECT_EQ(where, 356u);
+}
+
 TEST(Record, EncodeRefusesWhatDecodeWouldRefuse) {
   std::uint8_t buf[kRecordMaxBytes];
   std::size_t n = 0;
@@ -262,7 +403,7 @@ TEST(Record, EncodeRefusesWhatDecodeWouldRefuse) {
   r.calibration.gyro.sigma(3) = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
   r = example_record();
-  r.parts = 0x0004;  // a part this version cannot write
+  r.parts = 0x0010;  // a part this version cannot write
   EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
   r = example_record();
   r.calibration.has_temperature = false;  // then the temperature must be 0, as decode expects
@@ -287,7 +428,7 @@ TEST(Record, GrownFormatStillDecodes) {
     w += n;
   };
   put(e.bytes, 36);                                                     // header and info section
-  grown.bytes[16] = static_cast<std::uint8_t>(grown.bytes[16] | 0x08);  // a newer part's bit
+  grown.bytes[16] = static_cast<std::uint8_t>(grown.bytes[16] | 0x10);  // a newer part's bit
   const std::uint8_t accel_header[4] = {2, 0, 80 + 8, 0};               // 8 more bytes
   put(accel_header, 4);
   put(e.bytes + 40, 80);

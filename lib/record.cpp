@@ -13,11 +13,28 @@ constexpr std::uint8_t kMagic[4] = {0x49, 0x4D, 0x43, 0x52};  // "IMCR"
 constexpr std::size_t kCrcBytes = 4;
 constexpr std::size_t kSectionHeaderBytes = 4;
 
-enum Tag : std::uint8_t { kTagInfo = 1, kTagAccel = 2, kTagGyro = 3 };
+enum Tag : std::uint8_t {
+  kTagInfo = 1,
+  kTagAccel = 2,
+  kTagGyro = 3,
+  kTagMag = 4,
+  kTagTemperature = 5,
+  kLastKnownTag = kTagTemperature,
+};
 constexpr std::uint16_t kInfoBytes = 12;
 constexpr std::uint16_t kAccelBytes = 4 + 4 * (2 * kAccelParams + 1);
 constexpr std::uint16_t kGyroBytes = 4 + 4 * (2 * kGyroParams + 1);
-constexpr std::uint16_t kKnownParts = kRecordAccel | kRecordGyro;
+constexpr std::uint16_t kMagBytes = 4 + 4 * (9 + 3 + 3 + kMagSymEntries + 5);
+constexpr std::uint16_t kTemperatureHeadBytes = 16;
+constexpr std::uint16_t temperature_bytes(int order) {
+  // Two sensors, each (order + 1) coefficient vectors and as many sigma vectors of 3 floats.
+  return static_cast<std::uint16_t>(kTemperatureHeadBytes + 2 * 2 * (order + 1) * 3 * 4);
+}
+constexpr std::uint16_t kKnownParts = kRecordAccel | kRecordGyro | kRecordMag | kRecordTemperature;
+static_assert(kRecordHeaderBytes + 4 + kInfoBytes + 4 + kAccelBytes + 4 + kGyroBytes + 4 +
+                      kMagBytes + 4 + temperature_bytes(2) + 4 <=
+                  kRecordMaxBytes,
+              "every part fits the largest record");
 
 // Plausible bounds: an IMU's operating temperatures, any sample rate a MEMS part offers.
 constexpr float kMinTemperature = -100.0f, kMaxTemperature = 200.0f;
@@ -144,12 +161,40 @@ bool gyro_ok(const GyroCalibration<float>& g) {
          gyro_scale_ok(g.params(kGyroScaleX)) && gyro_scale_ok(g.params(kGyroScaleY)) &&
          gyro_scale_ok(g.params(kGyroScaleZ)) && all_sigmas_ok(g.sigma) && sigma_ok(g.residual_rms);
 }
+bool coverage_ok(float c) { return std::isfinite(c) && c >= 0.0f && c <= 1.0f; }
+bool dip_ok(float d) { return std::isfinite(d) && d >= -90.0f && d <= 90.0f; }
+bool field_ok(float f) { return std::isfinite(f) && f > 0.0f; }
+// A soft iron that mirrors space (or collapses it) is not a calibration.
+bool soft_iron_ok(const Matrix3<float>& m) { return m.determinant() > 0.0f; }
+bool mag_ok(const MagCalibration<float>& m) {
+  return m.samples >= 1 && m.samples <= 0xFFFF && m.quality <= Quality::kGood &&
+         all_of_finite(m.soft_iron.reshaped()) && soft_iron_ok(m.soft_iron) &&
+         all_of_finite(m.hard_iron) && all_sigmas_ok(m.hard_iron_sigma) &&
+         all_sigmas_ok(m.soft_iron_sigma) && field_ok(m.field_ut) && sigma_ok(m.fit_error_pct) &&
+         coverage_ok(m.coverage) && dip_ok(m.dip_deg) && sigma_ok(m.dip_sigma_deg);
+}
+bool temperature_bias_ok(const TemperatureBias<float>& b, int order) {
+  return all_of_finite(b.b0) && all_of_finite(b.b1) && all_of_finite(b.b2) &&
+         all_sigmas_ok(b.b0_sigma) && all_sigmas_ok(b.b1_sigma) && all_sigmas_ok(b.b2_sigma) &&
+         (order == 2 || (b.b2.isZero(0.0f) && b.b2_sigma.isZero(0.0f)));
+}
+bool temperature_range_ok(float t) { return temperature_ok(true, t); }
+bool temperature_model_ok(const TemperatureModel<float>& t) {
+  const bool a = succeeded(t.accel.status), g = succeeded(t.gyro.status);
+  return (t.order == 1 || t.order == 2) && (a || g) && t.rests >= 1 && t.rests <= 0xFFFF &&
+         temperature_range_ok(t.reference_c) && temperature_range_ok(t.min_c) &&
+         temperature_range_ok(t.max_c) && t.min_c <= t.max_c &&
+         (!a || temperature_bias_ok(t.accel, t.order)) &&
+         (!g || temperature_bias_ok(t.gyro, t.order));
+}
 bool record_ok(const CalibrationRecord& r) {
   const Calibration<float>& c = r.calibration;
   return (r.parts & ~kKnownParts) == 0 && r.parts != 0 && c.quality <= Quality::kGood &&
          temperature_ok(c.has_temperature, c.temperature_c) && sample_rate_ok(c.sample_rate_hz) &&
          (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
-         (!(r.parts & kRecordGyro) || gyro_ok(c.gyro));
+         (!(r.parts & kRecordGyro) || gyro_ok(c.gyro)) &&
+         (!(r.parts & kRecordMag) || mag_ok(r.mag)) &&
+         (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature));
 }
 
 // ---- Sections --------------------------------------------------------------------------------
@@ -205,6 +250,118 @@ void read_gyro(Reader& in, GyroCalibration<float>& g) {
   g.status = Status::kOk;
 }
 
+void read_vector(Reader& in, Vector3<float>& v) {
+  for (int i = 0; i < 3; ++i) v(i) = in.finite_f32();
+}
+void read_sigmas(Reader& in, Vector3<float>& v) {
+  for (int i = 0; i < 3; ++i) v(i) = in.non_negative_f32();
+}
+void write_vector(Writer& w, const Vector3<float>& v) {
+  for (int i = 0; i < 3; ++i) w.f32(v(i));
+}
+
+void read_mag(Reader& in, MagCalibration<float>& m) {
+  m.samples = in.u16();
+  in.expect(m.samples >= 1, 2);
+  const std::uint8_t quality = in.u8();
+  in.expect(quality <= static_cast<std::uint8_t>(Quality::kGood), 1);
+  m.quality = static_cast<Quality>(quality);
+  const std::uint8_t flags = in.u8();
+  in.expect((flags & ~1u) == 0, 1);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m.soft_iron(r, c) = in.finite_f32();
+  in.expect(soft_iron_ok(m.soft_iron), 36);
+  read_vector(in, m.hard_iron);
+  read_sigmas(in, m.hard_iron_sigma);
+  for (int i = 0; i < kMagSymEntries; ++i) m.soft_iron_sigma(i) = in.non_negative_f32();
+  m.field_ut = in.f32();
+  in.expect(field_ok(m.field_ut), 4);
+  m.fit_error_pct = in.non_negative_f32();
+  m.coverage = in.f32();
+  in.expect(coverage_ok(m.coverage), 4);
+  m.dip_deg = in.f32();
+  in.expect(dip_ok(m.dip_deg), 4);
+  m.dip_sigma_deg = in.non_negative_f32();
+  m.status = Status::kOk;
+  m.alignment_status = (flags & 1u) ? Status::kOk : Status::kNotStarted;
+}
+void write_mag(Writer& w, const MagCalibration<float>& m) {
+  w.u8(kTagMag);
+  w.u8(0);
+  w.u16(kMagBytes);
+  w.u16(static_cast<std::uint16_t>(m.samples));
+  w.u8(static_cast<std::uint8_t>(m.quality));
+  w.u8(succeeded(m.alignment_status) ? 1 : 0);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) w.f32(m.soft_iron(r, c));
+  write_vector(w, m.hard_iron);
+  write_vector(w, m.hard_iron_sigma);
+  for (int i = 0; i < kMagSymEntries; ++i) w.f32(m.soft_iron_sigma(i));
+  w.f32(m.field_ut);
+  w.f32(m.fit_error_pct);
+  w.f32(m.coverage);
+  w.f32(m.dip_deg);
+  w.f32(m.dip_sigma_deg);
+}
+
+// A sensor's temperature coefficients; all are read (an unusable sensor's are zeros).
+void read_temperature_bias(Reader& in, TemperatureBias<float>& b, int order, bool usable) {
+  read_vector(in, b.b0);
+  read_vector(in, b.b1);
+  if (order == 2) read_vector(in, b.b2);
+  read_sigmas(in, b.b0_sigma);
+  read_sigmas(in, b.b1_sigma);
+  if (order == 2) read_sigmas(in, b.b2_sigma);
+  b.status = usable ? Status::kOk : Status::kNotStarted;
+  if (!usable) b = TemperatureBias<float>{};
+}
+void write_temperature_bias(Writer& w, const TemperatureBias<float>& b, int order) {
+  const bool usable = succeeded(b.status);
+  const TemperatureBias<float> zero{};
+  const TemperatureBias<float>& v = usable ? b : zero;
+  write_vector(w, v.b0);
+  write_vector(w, v.b1);
+  if (order == 2) write_vector(w, v.b2);
+  write_vector(w, v.b0_sigma);
+  write_vector(w, v.b1_sigma);
+  if (order == 2) write_vector(w, v.b2_sigma);
+}
+
+// The order comes first: it sets the payload's length (checked by the caller through `length`).
+bool read_temperature(Reader& in, std::size_t length, TemperatureModel<float>& t) {
+  t.order = in.u8();
+  in.expect(t.order == 1 || t.order == 2, 1);
+  if (in.failed()) return true;
+  if (length < temperature_bytes(t.order)) return false;
+  const std::uint8_t flags = in.u8();
+  in.expect(flags != 0 && (flags & ~3u) == 0, 1);
+  t.rests = in.u16();
+  in.expect(t.rests >= 1, 2);
+  t.reference_c = in.f32();
+  in.expect(temperature_range_ok(t.reference_c), 4);
+  t.min_c = in.f32();
+  in.expect(temperature_range_ok(t.min_c), 4);
+  t.max_c = in.f32();
+  in.expect(temperature_range_ok(t.max_c) && t.min_c <= t.max_c, 4);
+  read_temperature_bias(in, t.accel, t.order, (flags & 1u) != 0);
+  read_temperature_bias(in, t.gyro, t.order, (flags & 2u) != 0);
+  return true;
+}
+void write_temperature(Writer& w, const TemperatureModel<float>& t) {
+  w.u8(kTagTemperature);
+  w.u8(0);
+  w.u16(temperature_bytes(t.order));
+  w.u8(static_cast<std::uint8_t>(t.order));
+  w.u8(static_cast<std::uint8_t>((succeeded(t.accel.status) ? 1u : 0u) |
+                                 (succeeded(t.gyro.status) ? 2u : 0u)));
+  w.u16(static_cast<std::uint16_t>(t.rests));
+  w.f32(t.reference_c);
+  w.f32(t.min_c);
+  w.f32(t.max_c);
+  write_temperature_bias(w, t.accel, t.order);
+  write_temperature_bias(w, t.gyro, t.order);
+}
+
 template <typename Scalar, class V>
 bool to_float(const V& in, Eigen::Matrix<float, V::RowsAtCompileTime, 1>& out) {
   for (int i = 0; i < in.size(); ++i) {
@@ -212,6 +369,59 @@ bool to_float(const V& in, Eigen::Matrix<float, V::RowsAtCompileTime, 1>& out) {
     if (!std::isfinite(out(i))) return false;
   }
   return true;
+}
+
+template <typename Scalar>
+MagCalibration<float> mag_to_float(const MagCalibration<Scalar>& m) {
+  MagCalibration<float> f;
+  f.status = m.status;
+  f.soft_iron = m.soft_iron.template cast<float>();
+  f.hard_iron = m.hard_iron.template cast<float>();
+  f.hard_iron_sigma = m.hard_iron_sigma.template cast<float>();
+  f.soft_iron_sigma = m.soft_iron_sigma.template cast<float>();
+  f.field_ut = static_cast<float>(m.field_ut);
+  f.fit_error_pct = static_cast<float>(m.fit_error_pct);
+  f.coverage = static_cast<float>(m.coverage);
+  f.samples = m.samples;
+  f.iterations = m.iterations;
+  f.quality = m.quality;
+  f.alignment_status = m.alignment_status;
+  const bool aligned = succeeded(m.alignment_status);
+  f.dip_deg = aligned ? static_cast<float>(m.dip_deg) : 0.0f;
+  f.dip_sigma_deg = aligned ? static_cast<float>(m.dip_sigma_deg) : 0.0f;
+  f.alignment_rotation = m.alignment_rotation.template cast<float>();
+  f.alignment_sigma = m.alignment_sigma.template cast<float>();
+  f.alignment_rests = m.alignment_rests;
+  return f;
+}
+
+template <typename Scalar>
+TemperatureBias<float> bias_to_float(const TemperatureBias<Scalar>& b, int order) {
+  TemperatureBias<float> f;
+  if (!succeeded(b.status)) return f;
+  f.status = Status::kOk;
+  f.b0 = b.b0.template cast<float>();
+  f.b1 = b.b1.template cast<float>();
+  f.b0_sigma = b.b0_sigma.template cast<float>();
+  f.b1_sigma = b.b1_sigma.template cast<float>();
+  if (order == 2) {
+    f.b2 = b.b2.template cast<float>();
+    f.b2_sigma = b.b2_sigma.template cast<float>();
+  }
+  return f;
+}
+
+template <typename Scalar>
+TemperatureModel<float> temperature_to_float(const TemperatureModel<Scalar>& t) {
+  TemperatureModel<float> f;
+  f.order = t.order;
+  f.reference_c = static_cast<float>(t.reference_c);
+  f.min_c = static_cast<float>(t.min_c);
+  f.max_c = static_cast<float>(t.max_c);
+  f.rests = t.rests;
+  f.accel = bias_to_float(t.accel, t.order);
+  f.gyro = bias_to_float(t.gyro, t.order);
+  return f;
 }
 
 Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
@@ -238,7 +448,8 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t cr
 
 template <typename Scalar>
 Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::uint32_t sensor_id,
-                   CalibrationRecord& out) {
+                   CalibrationRecord& out, const MagCalibration<Scalar>* mag,
+                   const TemperatureModel<Scalar>* temperature) {
   CalibrationRecord r;
   r.device_id = device_id;
   r.sensor_id = sensor_id;
@@ -268,15 +479,26 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
     g.status = Status::kOk;
     r.parts = static_cast<std::uint16_t>(r.parts | kRecordGyro);
   }
+  if (mag != nullptr && succeeded(mag->status)) {
+    r.mag = mag_to_float(*mag);
+    r.parts = static_cast<std::uint16_t>(r.parts | kRecordMag);
+  }
+  if (temperature != nullptr &&
+      (succeeded(temperature->accel.status) || succeeded(temperature->gyro.status))) {
+    r.temperature = temperature_to_float(*temperature);
+    r.parts = static_cast<std::uint16_t>(r.parts | kRecordTemperature);
+  }
   if (!record_ok(r)) return Status::kInvalidArgument;
   out = r;
   return Status::kOk;
 }
 
 template Status make_record<float>(const Calibration<float>&, std::uint32_t, std::uint32_t,
-                                   CalibrationRecord&);
+                                   CalibrationRecord&, const MagCalibration<float>*,
+                                   const TemperatureModel<float>*);
 template Status make_record<double>(const Calibration<double>&, std::uint32_t, std::uint32_t,
-                                    CalibrationRecord&);
+                                    CalibrationRecord&, const MagCalibration<double>*,
+                                    const TemperatureModel<double>*);
 
 Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t capacity,
                      std::size_t* size) {
@@ -318,6 +540,8 @@ Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t 
     w.u8(0);
     write_block(w, g.params, g.sigma, g.residual_rms);
   }
+  if (r.parts & kRecordMag) write_mag(w, r.mag);
+  if (r.parts & kRecordTemperature) write_temperature(w, r.temperature);
   const std::size_t n = w.pos() + kCrcBytes;
   if (n > capacity || n > kRecordMaxBytes) return Status::kCapacityExceeded;
   w.put_u16_at(6, static_cast<std::uint16_t>(n));
@@ -368,7 +592,8 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
     const std::size_t payload = at + kSectionHeaderBytes;
     if (length > end - payload) return fail(Status::kRecordBadLength, at + 2, error_offset);
     const std::uint16_t bit = static_cast<std::uint16_t>(tag < 16 ? 1u << tag : 0u);
-    if (tag <= kTagGyro && (seen & bit)) return fail(Status::kRecordBadField, at, error_offset);
+    if (tag <= kLastKnownTag && (seen & bit))
+      return fail(Status::kRecordBadField, at, error_offset);
     seen = static_cast<std::uint16_t>(seen | bit);
     Reader in(data, payload);
     switch (tag) {
@@ -386,6 +611,18 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
         if (!(parts & kRecordGyro)) return fail(Status::kRecordBadField, at, error_offset);
         read_gyro(in, r.calibration.gyro);
         break;
+      case kTagMag:
+        if (length < kMagBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
+        if (!(parts & kRecordMag)) return fail(Status::kRecordBadField, at, error_offset);
+        read_mag(in, r.mag);
+        break;
+      case kTagTemperature:
+        if (length < kTemperatureHeadBytes)
+          return fail(Status::kRecordBadLength, at + 2, error_offset);
+        if (!(parts & kRecordTemperature)) return fail(Status::kRecordBadField, at, error_offset);
+        if (!read_temperature(in, length, r.temperature))
+          return fail(Status::kRecordBadLength, at + 2, error_offset);
+        break;
       default:
         ++r.unknown_sections;
         break;
@@ -398,6 +635,10 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
   if ((parts & kRecordAccel) && !(seen & (1u << kTagAccel)))
     return fail(Status::kRecordBadField, 16, error_offset);
   if ((parts & kRecordGyro) && !(seen & (1u << kTagGyro)))
+    return fail(Status::kRecordBadField, 16, error_offset);
+  if ((parts & kRecordMag) && !(seen & (1u << kTagMag)))
+    return fail(Status::kRecordBadField, 16, error_offset);
+  if ((parts & kRecordTemperature) && !(seen & (1u << kTagTemperature)))
     return fail(Status::kRecordBadField, 16, error_offset);
   out = r;
   return Status::kOk;

@@ -17,7 +17,9 @@ namespace {
 // Raw samples arrive through volatile memory, as from a sensor driver: nothing folds away.
 volatile float g_raw[6] = {33012.0f, 31020.0f, 36810.0f, 32790.0f, 32750.0f, 32801.0f};
 Corrector<float> corrector;
-Vector3<float> acc_raw, gyro_raw, acc_out, gyro_out;
+Vector3<float> acc_raw, gyro_raw, acc_out, gyro_out, mag_raw, mag_out;
+volatile float g_mag[3] = {-210.0f, 455.0f, 130.0f};
+volatile float g_temperature = 31.25f;
 SimNorFlash<8192> flash;
 std::uint8_t bytes[kRecordMaxBytes];
 CalibrationRecord record, decoded;
@@ -67,6 +69,55 @@ int main() {
     check += acc_out(1);
   }
 
+  // The magnetometer and the temperature model (linear, both sensors).
+  MagCalibration<float> mag;
+  mag.status = Status::kOk;
+  mag.soft_iron << 0.151f, 0.004f, -0.002f, 0.003f, 0.148f, 0.005f, -0.001f, 0.006f, 0.152f;
+  mag.hard_iron << -120.5f, 310.25f, -45.0f;
+  mag.field_ut = 48.7f;
+  mag.coverage = 0.86f;
+  mag.samples = 96;
+  TemperatureModel<float> temp;
+  temp.reference_c = 24.5f;
+  temp.min_c = 5.0f;
+  temp.max_c = 45.0f;
+  temp.rests = 37;
+  temp.accel.b0 = c.accel.params.tail<3>();
+  temp.accel.b1 << 0.41f, -0.27f, 0.63f;
+  temp.gyro.b0 = c.gyro.params.tail<3>();
+  temp.gyro.b1 << 1.5f, -0.8f, 2.2f;
+  temp.accel.status = temp.gyro.status = Status::kOk;
+  corrector.set_mag(mag);
+  corrector.set_temperature_model(temp);
+  for (int k = 0; k < 100; ++k) {
+    for (int i = 0; i < 3; ++i) mag_raw(i) = g_mag[i];
+    bench_announce("Corrector::mag(): magnetometer, per sample");
+    imucal_bench_begin();
+    mag_out = corrector.mag(mag_raw);
+    imucal_bench_end();
+    check += mag_out(0);
+  }
+  for (int k = 0; k < 10; ++k) {
+    const float t = g_temperature;
+    bench_announce("Corrector::set_temperature(): both biases at T (linear model)");
+    imucal_bench_begin();
+    corrector.set_temperature(t);
+    imucal_bench_end();
+    check += corrector.accel_offset()(0);
+  }
+
+  // Every part (460 bytes): encode and decode.
+  make_record(c, 1u, 2u, record, &mag, &temp);
+  std::size_t full_size = 0;
+  bench_announce("encode_record(): every part, linear temperature model (460 bytes)");
+  imucal_bench_begin();
+  encode_record(record, bytes, sizeof bytes, &full_size);
+  imucal_bench_end();
+  bench_announce("decode_record(): every part, every field checked");
+  imucal_bench_begin();
+  const Status full = decode_record(bytes, full_size, decoded);
+  imucal_bench_end();
+
   make_record(c, 1u, 2u, record);
   std::size_t size = 0;
   bench_announce("encode_record(): both sensors (232 bytes)");
@@ -91,5 +142,8 @@ int main() {
   imucal_bench_end();
   std::printf("RESULT apply %d, record %s/%s, store %s/%s, %u bytes\n", static_cast<int>(check),
               to_string(s), to_string(d), to_string(s), to_string(l), static_cast<unsigned>(size));
-  return s == Status::kOk && d == Status::kOk && l == Status::kOk ? 0 : 1;
+  return s == Status::kOk && d == Status::kOk && l == Status::kOk && full == Status::kOk &&
+                 full_size == 460
+             ? 0
+             : 1;
 }

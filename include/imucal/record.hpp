@@ -12,7 +12,8 @@
 //        6     2  total length N in bytes, CRC included
 //        8     4  device id (the firmware's choice, e.g. a serial number)
 //       12     4  sensor id (e.g. the IMU's WHO_AM_I and bus address)
-//       16     2  parts present: bit 0 accelerometer, bit 1 gyroscope (other bits: 0)
+//       16     2  parts present: bit 0 accelerometer, bit 1 gyroscope, bit 2 magnetometer,
+//                   bit 3 temperature model (other bits: a newer format's, skipped)
 //       18     2  reserved, 0
 //       20   ...  sections, each: tag (1), reserved 0 (1), payload length L (2), payload (L)
 //      N-4     4  CRC-32 (IEEE 802.3, as zlib's crc32) of bytes [0, N-4)
@@ -25,6 +26,18 @@
 //   tag 3, gyroscope (104 bytes, iff parts bit 1): moves (2), flags (1: bit 0 bias refined),
 //          reserved 0 (1), the 12 parameters in gyro_model.hpp's order (48), sigmas (48),
 //          move residual RMS (4)
+//   tag 4, magnetometer (108 bytes, iff parts bit 2): samples (2), quality (1), flags (1: bit 0
+//          aligned to the accelerometer frame), soft iron S row by row (36), hard iron h (12),
+//          sigma of h (12), sigma of the symmetric S in mag_model.hpp's order (24), field in uT
+//          (4), fit error in % (4), coverage 0..1 (4), dip in degrees (4), its sigma (4)
+//   tag 5, temperature model (112 bytes linear, 160 quadratic, iff parts bit 3): order (1: 1 or
+//          2), flags (1: bit 0 accelerometer model usable, bit 1 gyro model usable), rests (2),
+//          reference temperature T0, lowest and highest temperature fitted (12, deg C), then for
+//          the accelerometer and then the gyro: b0, b1 (and b2 if quadratic) (3 each), then
+//          their sigmas in the same order; an unusable sensor's values are zeros
+//
+// Sizes: accelerometer and gyro 232 bytes; with the magnetometer 344; with a linear temperature
+// model too 460, quadratic 508.
 //
 // How the format grows (and older records keep decoding): new content comes as new sections
 // (new tags, new parts bits) or as fields appended to a section's payload; a decoder reads the
@@ -39,19 +52,23 @@
 #include "imucal/accel_calibration.hpp"
 #include "imucal/calibrator.hpp"
 #include "imucal/gyro_calibration.hpp"
+#include "imucal/mag_model.hpp"
 #include "imucal/status.hpp"
+#include "imucal/temperature_model.hpp"
 
 namespace imucal {
 
 constexpr std::uint8_t kRecordVersion = 1;
 constexpr std::size_t kRecordHeaderBytes = 20;
-// The largest record a decoder accepts (version 1 with both parts: 232 bytes; the rest is room
-// for the format to grow). Buffers and flash slots are sized with it.
+// The largest record a decoder accepts (version 1 with every part: 508 bytes at most; the
+// remaining room is for appended fields). Buffers and flash slots are sized with it.
 constexpr std::size_t kRecordMaxBytes = 512;
 
 enum RecordPart : std::uint16_t {
   kRecordAccel = 1u << 0,
   kRecordGyro = 1u << 1,
+  kRecordMag = 1u << 2,
+  kRecordTemperature = 1u << 3,
 };
 
 // What a record holds: the calibration (quality, sample rate and temperature included) and
@@ -62,15 +79,21 @@ struct CalibrationRecord {
   std::uint32_t sensor_id = 0;
   std::uint16_t parts = 0;
   Calibration<float> calibration{};
-  int unknown_sections = 0;  // decode only: sections of a newer format, skipped
+  MagCalibration<float> mag{};            // iff parts & kRecordMag
+  TemperatureModel<float> temperature{};  // iff parts & kRecordTemperature
+  int unknown_sections = 0;               // decode only: sections of a newer format, skipped
 };
 
-// The record of a calibration: its usable parts (succeeded status, finite values) and quality.
-// kInvalidArgument if neither part is usable or a value does not fit the format (counts above
-// 65535, a non-positive scale, a negative sigma, non-finite values).
+// The record of a calibration: its usable parts (succeeded status, finite values) and quality,
+// and, if given and usable, the magnetometer's calibration and the temperature model (a model
+// with neither sensor usable is left out). kInvalidArgument if no part is usable or a value
+// does not fit the format (counts above 65535, a non-positive scale, a negative sigma,
+// non-finite values, a temperature model of another order than 1 or 2).
 template <typename Scalar>
 Status make_record(const Calibration<Scalar>& calibration, std::uint32_t device_id,
-                   std::uint32_t sensor_id, CalibrationRecord& out);
+                   std::uint32_t sensor_id, CalibrationRecord& out,
+                   const MagCalibration<Scalar>* mag = nullptr,
+                   const TemperatureModel<Scalar>* temperature = nullptr);
 
 // Writes the record into out[0, capacity); *size receives its length. kInvalidArgument for an
 // inconsistent record (the checks of decode_record), kCapacityExceeded if it does not fit.
