@@ -208,6 +208,21 @@ TEST(Record, MagnetometerAndTemperatureRoundTrip) {
   EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro);
 }
 
+// Every part as first written (issue 6, 2026-11-22): the magnetometer and temperature
+// sections are pinned like version 1's.
+constexpr std::uint8_t kEveryPart[] = {
+#include "support/record_full_bytes.inc"
+};
+
+TEST(Record, EveryPartBytesStayReadable) {
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(kEveryPart, sizeof kEveryPart, back), Status::kOk);
+  expect_same(full_record(2), back);
+  const Encoded e = encode(full_record(2));
+  ASSERT_EQ(e.size, sizeof kEveryPart);
+  EXPECT_EQ(std::memcmp(e.bytes, kEveryPart, e.size), 0);
+}
+
 TEST(Record, EverySingleByteCorruptionIsDetected) {
   for (const Encoded& e : {encode(example_record()), encode(full_record(2))}) {
     int cases = 0;

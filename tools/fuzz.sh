@@ -31,9 +31,12 @@ clang++ -std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
   tools/fuzz/fuzz_record.cpp lib/record.cpp lib/record_store.cpp lib/status.cpp \
   lib/accel_calibration.cpp lib/gyro_calibration.cpp -o "$out/fuzz_record"
 mkdir -p "$out/corpus_record"
-# Seeds: the pinned version-1 record (both sensors), and the same cut short.
+# Seeds: the pinned version-1 record (both sensors), the same cut short, and the pinned record
+# with every part (magnetometer and temperature model too).
 printf "$(sed -n '/^0x/{s/0x/\\x/g; s/[, ]//g; p}' host_tests/support/record_v1_bytes.inc | tr -d '\n')" \
   >"$out/corpus_record/v1"
 head -c 100 "$out/corpus_record/v1" >"$out/corpus_record/v1_short"
+printf "$(sed -n '/^0x/{s/0x/\\x/g; s/[, ]//g; p}' host_tests/support/record_full_bytes.inc | tr -d '\n')" \
+  >"$out/corpus_record/every_part"
 "$out/fuzz_record" -max_total_time="$(( (seconds + 1) / 2 ))" -max_len=2048 -timeout=10 \
   -artifact_prefix="$out/record-" "$out/corpus_record" 2>&1 | tail -n 4

@@ -27,6 +27,23 @@ bool finite(const V& v) {
   return true;
 }
 
+bool same_mag(const MagCalibration<float>& a, const MagCalibration<float>& b) {
+  return a.soft_iron == b.soft_iron && a.hard_iron == b.hard_iron &&
+         a.hard_iron_sigma == b.hard_iron_sigma && a.soft_iron_sigma == b.soft_iron_sigma &&
+         a.field_ut == b.field_ut && a.fit_error_pct == b.fit_error_pct &&
+         a.coverage == b.coverage && a.samples == b.samples && a.quality == b.quality &&
+         a.dip_deg == b.dip_deg && a.dip_sigma_deg == b.dip_sigma_deg;
+}
+bool same_bias(const TemperatureBias<float>& a, const TemperatureBias<float>& b) {
+  return a.status == b.status && a.b0 == b.b0 && a.b1 == b.b1 && a.b2 == b.b2 &&
+         a.b0_sigma == b.b0_sigma && a.b1_sigma == b.b1_sigma && a.b2_sigma == b.b2_sigma;
+}
+bool same_temperature(const TemperatureModel<float>& a, const TemperatureModel<float>& b) {
+  return a.order == b.order && a.reference_c == b.reference_c && a.min_c == b.min_c &&
+         a.max_c == b.max_c && a.rests == b.rests && same_bias(a.accel, b.accel) &&
+         same_bias(a.gyro, b.gyro);
+}
+
 bool same(const CalibrationRecord& a, const CalibrationRecord& b) {
   const Calibration<float>&x = a.calibration, &y = b.calibration;
   return a.device_id == b.device_id && a.sensor_id == b.sensor_id && a.parts == b.parts &&
@@ -34,7 +51,9 @@ bool same(const CalibrationRecord& a, const CalibrationRecord& b) {
          x.temperature_c == y.temperature_c && x.sample_rate_hz == y.sample_rate_hz &&
          x.accel.params == y.accel.params && x.accel.sigma == y.accel.sigma &&
          x.gyro.params == y.gyro.params && x.gyro.sigma == y.gyro.sigma &&
-         x.accel.residual_rms == y.accel.residual_rms && x.gyro.residual_rms == y.gyro.residual_rms;
+         x.accel.residual_rms == y.accel.residual_rms &&
+         x.gyro.residual_rms == y.gyro.residual_rms && same_mag(a.mag, b.mag) &&
+         same_temperature(a.temperature, b.temperature);
 }
 
 SimNorFlash<2048, 1024, 64> flash;
@@ -50,6 +69,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(finite(c.accel.params) && finite(c.accel.sigma) && finite(c.gyro.params) &&
           finite(c.gyro.sigma) && std::isfinite(c.temperature_c) &&
           std::isfinite(c.sample_rate_hz));
+    if (r.parts & kRecordMag)
+      check(finite(r.mag.soft_iron.reshaped()) && finite(r.mag.hard_iron) &&
+            r.mag.soft_iron.determinant() > 0.0f && std::isfinite(r.mag.field_ut));
+    if (r.parts & kRecordTemperature)
+      check(finite(r.temperature.accel.b0) && finite(r.temperature.accel.b1) &&
+            finite(r.temperature.gyro.b0) && finite(r.temperature.gyro.b1) &&
+            r.temperature.min_c <= r.temperature.max_c);
     if (r.parts != 0) {  // a record of newer parts only has nothing this version can write
       std::uint8_t out[kRecordMaxBytes];
       std::size_t n = 0;
