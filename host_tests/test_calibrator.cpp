@@ -152,6 +152,13 @@ TEST(CalibratorStream, EveryPoseIsSummarisedAsARest) {
     ++checked;
   }
   EXPECT_EQ(checked, kPoses);  // the last rest becomes a pose only when the stream ends
+  // The initial rest's noise, for setting a RestMonitor's thresholds: the simulator's white
+  // noise, within the scatter of a variance over the rest's ~2000 samples (5 sigma).
+  const double n0 = kInitialRest * r.sc.plan.rate_hz;
+  for (int a = 0; a < 3; ++a) {
+    const double v = r.sc.gyro.noise * r.sc.gyro.noise;
+    EXPECT_NEAR(cal.gyro_noise_variance()(a), v, 5.0 * v * std::sqrt(2.0 / n0)) << a;
+  }
 }
 
 // Rests shorter than min_rest_seconds are not poses: their samples join the move around them,

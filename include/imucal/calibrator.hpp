@@ -458,6 +458,10 @@ class Calibrator {
   // The initial-rest gyro bias (added, sensor units) and the per-axis noise variances.
   const Vector3<Scalar>& gyro_bias0() const { return b0_; }
   const Vector3<Scalar>& accel_noise_variance() const { return v0_; }
+  // The gyro's per-axis noise variance over the initial rest (sensor units^2).
+  Vector3<Scalar> gyro_noise_variance() const {
+    return b0_sigma_.cwiseProduct(b0_sigma_) * static_cast<Scalar>(init_.n);
+  }
   Scalar mean_period() const { return period_; }
   // The mean temperature of the samples taken so far; false if none carried one.
   bool mean_temperature(Scalar& out) const {
