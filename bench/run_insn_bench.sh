@@ -24,6 +24,9 @@ programs=(bench_accel_insn)
 if [ -f "$here/../build/$preset/bench/bench_apply_insn" ]; then
   programs+=(bench_apply_insn)
 fi
+if [ -f "$here/../build/$preset/bench/bench_mag_insn" ]; then
+  programs+=(bench_mag_insn)
+fi
 # The streaming benchmark reads the xsens recording beside the clone (CI always has it).
 if [ -f "$here/../../shared/data/xsens/xsens_acc.mat" ]; then
   programs+=(bench_stream_insn)

@@ -22,7 +22,10 @@ volatile float g_input[3 * 12] = {9.8f, 0.1f,  0.2f, -9.7f, 0.2f, 0.1f,  0.1f,  
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 // A global, not a function-local static: that would need a thread-safe guard (__cxa_guard_*).
 imucal::Calibrator<float> calibrator;
-imucal::SimNorFlash<2048, 1024, 64> flash;  // the firmware's flash driver (2 KB of bss here)
+imucal::SimNorFlash<2048, 1024, 64> flash;      // the firmware's flash driver (2 KB of bss here)
+imucal::MagCalibrator<float> mag;               // the magnetometer collector
+imucal::TemperatureFit<float> temperature_fit;  // bias against temperature
+imucal::RestMonitor<float> rest_monitor;        // rests in the field
 #endif
 
 }  // namespace
@@ -89,6 +92,42 @@ int main() {
                   imucal::Vector3<float>(r[3], r[4], r[5]), a_cal, w_cal);
   std::printf("record: %s, %s, parts %u, |a| %d\n", imucal::to_string(s4), imucal::to_string(s5),
               static_cast<unsigned>(corrector.parts()), static_cast<int>(a_cal.norm()));
+  // The magnetometer: collector, solve and alignment, so all of its code is linked and checked.
+  for (int k = 0; k < 600; ++k) {
+    const float x = g_input[k % 36], y = g_input[(k + 7) % 36], z = g_input[(k + 13) % 36];
+    mag.add(imucal::Vector3<float>(40.0f * x, 40.0f * y, 40.0f * z));
+    if (k % 60 == 0) mag.add_rest(imucal::Vector3<float>(x, y, z), imucal::Vector3<float>(z, y, x));
+  }
+  imucal::MagCalibration<float> mag_cal;
+  const imucal::Status s6 = mag.solve(mag_cal);
+  const imucal::Status s7 = mag.align(cal, mag_cal);
+  std::printf("mag: %u bytes, %d samples, %s, %s\n", static_cast<unsigned>(sizeof(mag)), mag.size(),
+              imucal::to_string(s6), imucal::to_string(s7));
+  // The temperature model: rests from the field monitor into the fit, applied by the corrector.
+  imucal::RestMonitorSettings<float> rm;
+  rm.accel_var_max = rm.gyro_var_max = 1.0f;
+  rest_monitor.reset(rm);
+  const imucal::Status s8 = temperature_fit.reset(calibrator.calibration());
+  for (int k = 0; k < 2000; ++k) {
+    imucal::ImuSample<float> sample;
+    sample.t_us = static_cast<std::uint32_t>(k) * 10000u;
+    const float ax = g_input[k % 36], ay = g_input[(k + 1) % 36];
+    sample.acc = imucal::Vector3<float>(ax, ay, 9.8f);
+    sample.temperature = 20.0f + 0.01f * static_cast<float>(k);
+    rest_monitor.add(sample);
+    imucal::RestSummary<float> rest;
+    if (rest_monitor.take(rest)) temperature_fit.add_rest(rest);
+  }
+  imucal::TemperatureModel<float> model;
+  const imucal::Status s9 = temperature_fit.solve(model);
+  corrector.set_mag(mag_cal);
+  corrector.set_temperature_model(model);
+  const float temperature = g_input[5];
+  corrector.set_temperature(temperature);
+  std::printf("temperature: fit %u B, monitor %u B, %s, %s, parts %u\n",
+              static_cast<unsigned>(sizeof(temperature_fit)),
+              static_cast<unsigned>(sizeof(rest_monitor)), imucal::to_string(s8),
+              imucal::to_string(s9), static_cast<unsigned>(corrector.parts()));
   return imucal::succeeded(s) && imucal::succeeded(s2) ? 0 : 1;
 #endif
 }
