@@ -199,8 +199,8 @@ void check_one_axis() {
   o.kind = HandRotation::Kind::kOneAxis;
   o.axis = Vector3<double>(0.3, -0.2, 1.0);
   MagCalibration<Scalar> c;
-  // The samples lie on one circle: they fill fewer cells than min_samples.
-  EXPECT_EQ(solve_motion<Scalar>(o, kStream, c), Status::kTooFewSamples);
+  // The samples lie on one circle: they fill fewer cells than min_samples (poor coverage).
+  EXPECT_EQ(solve_motion<Scalar>(o, kStream, c), Status::kPoorCoverage);
   EXPECT_LT(c.samples, 30);
   EXPECT_LT(static_cast<double>(c.coverage), 0.35);  // the raw coverage, for the user
   // With fewer samples allowed: one plane, so no ellipsoid is determined; seen before the fit.
@@ -245,10 +245,11 @@ TEST(MagCalibration, CapRefused) {
 
 TEST(MagCalibration, TooFewSamplesRefused) {
   MagCalibration<float> c;
-  // A handful of samples, turning fast: fewer than min_samples cells are filled.
+  // A handful of samples, turning fast: fewer than min_samples cells are filled (poor
+  // coverage, the user has to turn on); fewer than 10: too few to fit anything.
   HandRotation::Options o;
-  EXPECT_EQ(solve_motion<float>(o, 25, c), Status::kTooFewSamples);
-  EXPECT_EQ(c.status, Status::kTooFewSamples);
+  EXPECT_EQ(solve_motion<float>(o, 25, c), Status::kPoorCoverage);
+  EXPECT_EQ(c.status, Status::kPoorCoverage);
   EXPECT_LT(c.samples, 30);
   static MagCalibrator<float> empty;
   empty.reset();

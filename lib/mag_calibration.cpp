@@ -293,7 +293,10 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   if (std::isfinite(raw_coverage)) out.coverage = raw_coverage;  // until a fit gives the real one
   const int min_samples =
       settings.min_samples > kMagMinSamples ? settings.min_samples : kMagMinSamples;
-  if (n < min_samples) return out.status = Status::kTooFewSamples;
+  // A sample held is a direction cell covered: fewer than min_samples (but enough to count) is
+  // poor coverage, which tells the user what to do (turn through more orientations).
+  if (n < kMagMinSamples) return out.status = Status::kTooFewSamples;
+  if (n < min_samples) return out.status = Status::kPoorCoverage;
   for (int i = 0; i < n; ++i)
     if (!all_finite(samples[i])) return out.status = Status::kNonFiniteInput;
 

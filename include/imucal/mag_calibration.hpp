@@ -38,7 +38,9 @@ struct MagSettings {
   // Fewest direction cells (fraction of all, calibrated directions) holding a sample; below:
   // kPoorCoverage.
   Scalar min_coverage = Scalar(0.5);
-  int min_samples = 30;                  // fewer samples held: kTooFewSamples (at least 10)
+  // Fewest samples held (= direction cells covered): fewer is kPoorCoverage (fewer than
+  // kMagMinSamples, 10: kTooFewSamples).
+  int min_samples = 30;
   Scalar max_fit_error_pct = Scalar(5);  // RMS of |m_cal|/field - 1, %; above: kFitPoor
   // Largest accepted sigma of any fitted parameter relative to the field (h as a fraction of the
   // radius, the soft iron's entries relative to its scale), at the closed-form start; above:
@@ -202,8 +204,9 @@ class MagCalibrator {
 
   // Fits the samples held. out.status (also returned) says whether the result is usable
   // (succeeded()) and otherwise why not, checked in this order: kTooFewSamples (fewer than
-  // settings.min_samples or kMagMinSamples; turning about one axis only usually ends here, the
-  // samples filling only the cells along one circle); kPoorCoverage if the samples lie in one
+  // kMagMinSamples); kPoorCoverage if fewer than settings.min_samples are held (a sample held is
+  // a cell covered; turning about one axis only usually ends here, the samples filling only the
+  // cells along one circle); kPoorCoverage if the samples lie in one
   // plane; the closed-form fit found no ellipsoid (kNotAnEllipsoid, kRankDeficient,
   // kIllConditioned); kPoorCoverage if at that start a parameter's sigma exceeds
   // max_relative_sigma (e.g. a small cap: the samples do not determine the ellipsoid); the

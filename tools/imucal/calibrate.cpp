@@ -7,10 +7,13 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <utility>
 
 #include "cli.hpp"
 #include "imucal/calibrator.hpp"
+#include "imucal/mag_calibration.hpp"
 #include "imucal/record.hpp"
+#include "imucal/temperature_fit.hpp"
 #include "outputs.hpp"
 
 namespace imucal::cli {
@@ -81,6 +84,21 @@ double gyro_nominal_scale(const Options& o) {
   return 0.0;
 }
 
+// uT per input unit of the magnetometer (NaN: counts without --mag-lsb-per-ut).
+double mag_unit_ut(const Options& o) {
+  switch (o.mag_unit) {
+    case MagUnit::kUt:
+      return 1.0;
+    case MagUnit::kNt:
+      return 0.001;
+    case MagUnit::kGauss:
+      return 100.0;
+    case MagUnit::kCounts:
+      return 1.0 / o.mag_lsb_per_ut;  // NaN if not given
+  }
+  return kNaN;
+}
+
 const char* quality_name(Quality q) {
   switch (q) {
     case Quality::kGood:
@@ -127,6 +145,78 @@ double rms(const std::vector<double>& v) {
   return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
 }
 
+// The device's view of one sample (temperature NaN: none).
+template <typename Scalar>
+ImuSample<Scalar> imu_sample(const Sample& x, double t0) {
+  ImuSample<Scalar> s;
+  s.t_us = device_time_us(x.t, t0);
+  for (int a = 0; a < 3; ++a) {
+    s.acc(a) = static_cast<Scalar>(x.acc[a]);
+    s.gyro(a) = static_cast<Scalar>(x.gyro[a]);
+  }
+  s.temperature = static_cast<Scalar>(x.temp);
+  return s;
+}
+
+// The temperature model about `base` from the rests (raw means). False if the fit cannot start
+// (`status` says why); otherwise `out` holds the model (each part's status inside).
+template <typename Scalar>
+bool fit_temperature(const Calibration<Scalar>& base, const std::vector<RestSummary<Scalar>>& rests,
+                     const Options& o, TemperatureModel<Scalar>& out, Status& status) {
+  TemperatureSettings<Scalar> ts;
+  ts.order = o.temp_order;
+  ts.min_span_c = static_cast<Scalar>(o.temp_min_span);
+  ts.gravity = static_cast<Scalar>(o.gravity);
+  auto fit = std::make_unique<TemperatureFit<Scalar>>();
+  status = fit->reset(base, ts);
+  if (status != Status::kOk) return false;
+  for (const RestSummary<Scalar>& r : rests)
+    if (r.has_temperature) fit->add_rest(r);
+  status = fit->solve(out);
+  return true;
+}
+
+// b(T) - b0 of a usable part (zero otherwise).
+template <typename Scalar>
+Vector3<double> bias_change(const TemperatureModel<Scalar>& m, const TemperatureBias<Scalar>& b,
+                            double temp) {
+  if (!succeeded(b.status) || !std::isfinite(temp)) return Vector3<double>::Zero();
+  const double d = temp - static_cast<double>(m.reference_c);
+  return d * (b.b1.template cast<double>() + d * b.b2.template cast<double>());
+}
+
+// Whether a reading is at or beyond the full scale (NaN limits: none given).
+bool saturated(const double v[3], double lo, double hi) {
+  for (int a = 0; a < 3; ++a)
+    if (v[a] <= lo || v[a] >= hi) return true;
+  return false;
+}
+
+// The readings with the model applied, raw + b(T) - b0 (the calibration then sees the biases at
+// T0); a sample without a temperature takes the nearest earlier one (the first one before it).
+// A saturated reading stays as it is (the calibrator must still see it saturated).
+template <typename Scalar>
+void compensate(const std::vector<Sample>& raw, const TemperatureModel<Scalar>& m, const Options& o,
+                std::vector<Sample>& out) {
+  out = raw;
+  double temp = kNaN;
+  for (const Sample& x : raw)
+    if (std::isfinite(x.temp)) {
+      temp = x.temp;
+      break;
+    }
+  for (Sample& x : out) {
+    if (std::isfinite(x.temp)) temp = x.temp;
+    const Vector3<double> da = bias_change(m, m.accel, temp), dg = bias_change(m, m.gyro, temp);
+    const bool acc_sat = saturated(x.acc, o.accel_min, o.accel_max);
+    const bool gyro_sat = saturated(x.gyro, o.gyro_min, o.gyro_max);
+    for (int a = 0; a < 3; ++a) {
+      if (!acc_sat) x.acc[a] += da(a);
+      if (!gyro_sat) x.gyro[a] += dg(a);
+    }
+  }
+}
+
 template <typename Scalar>
 int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
                     std::vector<Sample>& samples) {
@@ -150,6 +240,19 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   if (std::isfinite(zero))
     cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
   auto cal = std::make_unique<Cal>(cs);  // 32 KB (float): on the heap of the host tool
+  // The magnetometer's collector (one rest per pose for the alignment) and the rests for the
+  // temperature model, one per pose as the calibrator hands them out.
+  using MagCal = MagCalibrator<Scalar, 4, Cal::kMaxPoses>;
+  MagSettings<Scalar> ms;
+  ms.unit_ut = static_cast<Scalar>(mag_unit_ut(o));
+  ms.field_min_ut = static_cast<Scalar>(o.mag_field_min);
+  ms.field_max_ut = static_cast<Scalar>(o.mag_field_max);
+  ms.min_coverage = static_cast<Scalar>(o.mag_min_coverage);
+  auto mag = std::make_unique<MagCal>(ms);
+  std::vector<RestSummary<Scalar>> rests;
+  auto keep_rests = [&] {
+    while (static_cast<int>(rests.size()) < cal->poses().size) rests.push_back(cal->last_rest());
+  };
 
   run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
   run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
@@ -159,14 +262,19 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   double t0 = 0;
   while (reader.next(r, diag)) {
     if (samples.empty()) t0 = r.t;
-    samples.push_back({r.t, {r.acc[0], r.acc[1], r.acc[2]}, {r.gyro[0], r.gyro[1], r.gyro[2]}});
-    ImuSample<Scalar> s;
-    s.t_us = device_time_us(r.t, t0);
-    for (int a = 0; a < 3; ++a) {
-      s.acc(a) = static_cast<Scalar>(r.acc[a]);
-      s.gyro(a) = static_cast<Scalar>(r.gyro[a]);
+    samples.push_back({r.t,
+                       {r.acc[0], r.acc[1], r.acc[2]},
+                       {r.gyro[0], r.gyro[1], r.gyro[2]},
+                       r.temp,
+                       {r.mag[0], r.mag[1], r.mag[2]}});
+    const ImuSample<Scalar> s = imu_sample<Scalar>(samples.back(), t0);
+    if (std::isfinite(r.mag[0])) {  // the reader gives all three axes or none
+      mag->add(Vector3<Scalar>(static_cast<Scalar>(r.mag[0]), static_cast<Scalar>(r.mag[1]),
+                               static_cast<Scalar>(r.mag[2])));
+      ++run.mag.readings;
     }
     const Status st = cal->add(s);
+    keep_rests();
     if (st != Status::kOk) {
       StreamEvent& e = events[to_string(st)];
       if (e.count++ == 0) e.first_t = r.t;
@@ -187,7 +295,75 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   if (samples.size() > 1)
     run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
 
-  const Status solved = cal->solve_all();
+  Status solved = cal->solve_all();
+  keep_rests();                                    // the rest open at the end became a pose
+  const StreamCounts sc = cal->progress().stream;  // of the readings as read
+
+  // Temperature: the biases against the rests' temperatures, about this calibration. With a
+  // usable part, the calibration runs again over the readings with the model applied (else it
+  // absorbs part of the drift and the model, fitted about it, sees less than there is), and the
+  // model is fitted again about the new calibration, until its slopes settle (0.1 sigma).
+  TemperatureModel<Scalar> tm;
+  bool have_tm = false;
+  Status tm_status = Status::kNotStarted;
+  TemperatureResult& tr = run.temperature;
+  tr.present = reader.has_temperature();
+  tr.order = o.temp_order;
+  std::vector<Sample> compensated;             // the readings the final calibration saw
+  const std::vector<Sample>* used = &samples;  // raw, or `compensated`
+  auto usable = [](const Calibration<Scalar>& x) {
+    return succeeded(x.accel.status) && succeeded(x.gyro.status);
+  };
+  if (tr.present && cal->calibration().has_temperature && usable(cal->calibration())) {
+    have_tm = fit_temperature(cal->calibration(), rests, o, tm, tm_status);
+    constexpr int kMaxPasses = 20;
+    for (int pass = 0; have_tm && pass < kMaxPasses; ++pass) {
+      if (!succeeded(tm.accel.status) && !succeeded(tm.gyro.status)) break;
+      std::vector<Sample> next;
+      compensate(samples, tm, o, next);
+      auto cal2 = std::make_unique<Cal>(cs);
+      std::vector<RestSummary<Scalar>> rests2;
+      for (const Sample& x : next) {
+        cal2->add(imu_sample<Scalar>(x, t0));
+        while (static_cast<int>(rests2.size()) < cal2->poses().size)
+          rests2.push_back(cal2->last_rest());
+      }
+      const Status solved2 = cal2->solve_all();
+      while (static_cast<int>(rests2.size()) < cal2->poses().size)
+        rests2.push_back(cal2->last_rest());
+      if (!usable(cal2->calibration())) break;
+      for (RestSummary<Scalar>& r2 : rests2) {  // back to raw means for the model
+        if (!r2.has_temperature) continue;
+        const double temp = static_cast<double>(r2.temperature_c);
+        r2.accel_mean -= bias_change(tm, tm.accel, temp).template cast<Scalar>();
+        r2.gyro_mean -= bias_change(tm, tm.gyro, temp).template cast<Scalar>();
+      }
+      TemperatureModel<Scalar> tm2;
+      Status st2 = Status::kNotStarted;
+      if (!fit_temperature(cal2->calibration(), rests2, o, tm2, st2)) break;
+      double change = 0;
+      for (const auto& [b_old, b_new] :
+           {std::make_pair(&tm.accel, &tm2.accel), std::make_pair(&tm.gyro, &tm2.gyro)}) {
+        if (!succeeded(b_new->status)) continue;
+        if (!succeeded(b_old->status)) change = HUGE_VAL;
+        for (int a = 0; a < 3; ++a) {
+          const double sd = std::max(static_cast<double>(b_new->b1_sigma(a)), 1e-30);
+          change =
+              std::max(change, std::abs(static_cast<double>(b_new->b1(a) - b_old->b1(a))) / sd);
+        }
+      }
+      cal = std::move(cal2);
+      rests = std::move(rests2);
+      tm = tm2;
+      tm_status = st2;
+      solved = solved2;
+      compensated = std::move(next);
+      used = &compensated;
+      tr.passes = pass + 1;
+      if (change < 0.1) break;
+    }
+  }
+  const std::vector<Sample>& cal_samples = *used;
   const Calibration<Scalar>& c = cal->calibration();
   const Progress p = cal->progress();
   run.poses = p.poses;
@@ -198,7 +374,6 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   run.moves_dropped = p.moves_dropped;
   run.faces = p.faces;
   run.faces_covered = p.faces_covered;
-  const StreamCounts& sc = p.stream;
   run.stream_counts = {{"non-finite", "non_finite", sc.non_finite},
                        {"accel saturated", "accel_saturated", sc.accel_saturated},
                        {"gyro saturated", "gyro_saturated", sc.gyro_saturated},
@@ -229,20 +404,6 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
     run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
   }
-  // The record the device would store: from the calibration itself (float, as on the device).
-  if (!o.record_path.empty() && run.usable) {
-    CalibrationRecord record;
-    std::uint8_t bytes[kRecordMaxBytes];
-    std::size_t size = 0;
-    Status st = make_record(c, o.device_id, o.sensor_id, record);
-    if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
-    if (st == Status::kOk) {
-      run.record.assign(bytes, bytes + size);
-    } else {
-      run.record_error = to_string(st);
-    }
-  }
-
   // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
   const double sa = accel_nominal_scale(o);
   run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);
@@ -305,7 +466,7 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     for (std::size_t k = 0; k < first_sample.size(); ++k) {
       const double mean_norm = o.gravity - run.pose_list[k].residual_after;
       for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
-        const Sample& s = samples[i];
+        const Sample& s = cal_samples[i];
         const double norm = accel_apply(pa, Vector3<double>(s.acc[0], s.acc[1], s.acc[2])).norm();
         sum += (o.gravity - norm) * (o.gravity - norm);
         sum_noise += (norm - mean_norm) * (norm - mean_norm);
@@ -346,6 +507,134 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     }
     run.gyro_rms_before = rms(before);
     run.gyro_rms_after = rms(after);
+  }
+
+  // Magnetometer: the fit of the samples held, then the rotation into the accelerometer's frame
+  // from the poses (mean field over each pose's window with the pose's mean acceleration).
+  MagCalibration<Scalar> mc;
+  MagResult& m = run.mag;
+  m.present = reader.has_magnetometer();
+  m.unit_ut = mag_unit_ut(o);
+  if (!m.present) {
+    m.status = "no magnetometer columns (mx, my, mz)";
+  } else if (m.readings == 0) {
+    m.status = "no magnetometer readings";
+  } else {
+    for (std::size_t k = 0; k < first_sample.size(); ++k) {
+      Vector3<double> sum = Vector3<double>::Zero();
+      long n = 0;
+      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
+        const Sample& sm = samples[i];
+        if (!std::isfinite(sm.mag[0])) continue;
+        sum += Vector3<double>(sm.mag[0], sm.mag[1], sm.mag[2]);
+        ++n;
+      }
+      if (n == 0) continue;
+      const Vector3<double> mean_mag = sum / static_cast<double>(n);
+      const Vector3<double> mean_acc(run.pose_list[k].mean[0], run.pose_list[k].mean[1],
+                                     run.pose_list[k].mean[2]);
+      mag->add_rest(mean_mag.cast<Scalar>(), mean_acc.cast<Scalar>());
+    }
+    const Status ms_status = mag->solve(mc);
+    m.status = to_string(ms_status);
+    m.ok = succeeded(ms_status);
+    if (!m.ok) {
+      m.alignment_status = "no usable magnetometer fit";
+    } else if (!o.mag_align) {
+      m.alignment_status = "not asked (--no-mag-align)";
+    } else if (!run.accel_ok) {
+      m.alignment_status = "no accelerometer calibration";
+    } else {
+      m.aligned = succeeded(mag->align(c.accel, mc));
+      m.alignment_status = to_string(mc.alignment_status);
+    }
+    for (int i = 0; i < 3; ++i) {
+      for (int k = 0; k < 3; ++k) m.soft_iron[i][k] = static_cast<double>(mc.soft_iron(i, k));
+      m.hard_iron[i] = static_cast<double>(mc.hard_iron(i));
+      m.hard_iron_sigma[i] = static_cast<double>(mc.hard_iron_sigma(i));
+      m.rotation[i] = static_cast<double>(mc.alignment_rotation(i));
+      m.rotation_sigma[i] = static_cast<double>(mc.alignment_sigma(i));
+    }
+    for (int k = 0; k < kMagSymEntries; ++k)
+      m.soft_iron_sigma[k] = static_cast<double>(mc.soft_iron_sigma(k));
+    m.field_ut = static_cast<double>(mc.field_ut);
+    m.fit_error_pct = static_cast<double>(mc.fit_error_pct);
+    m.coverage = static_cast<double>(mc.coverage);
+    m.samples = mc.samples;
+    m.iterations = mc.iterations;
+    m.quality = quality_name(mc.quality);
+    m.rests = mag->rests();
+    if (m.aligned) {
+      m.dip_deg = static_cast<double>(mc.dip_deg);
+      m.dip_sigma_deg = static_cast<double>(mc.dip_sigma_deg);
+      m.rests = mc.alignment_rests;
+    }
+  }
+  for (int i = 0; i < mag->size(); ++i) {
+    const Vector3<Scalar>& h = mag->sample(i);
+    m.held.push_back(
+        {static_cast<double>(h(0)), static_cast<double>(h(1)), static_cast<double>(h(2))});
+  }
+
+  // The temperature model as fitted above; the rests as raw means (the plots' points).
+  for (const RestSummary<Scalar>& rs : rests) {
+    if (!rs.has_temperature) continue;
+    TemperatureRest x;
+    x.temperature_c = static_cast<double>(rs.temperature_c);
+    for (int a = 0; a < 3; ++a) {
+      x.accel_mean[a] = static_cast<double>(rs.accel_mean(a));
+      x.gyro_mean[a] = static_cast<double>(rs.gyro_mean(a));
+    }
+    x.samples = static_cast<long>(rs.samples);
+    tr.rest_list.push_back(x);
+  }
+  if (!tr.present) {
+    tr.status = "no temperature column";
+  } else if (!c.has_temperature) {
+    tr.status = "no temperature readings";
+  } else if (!run.usable) {
+    tr.status = "needs a usable accelerometer and gyroscope calibration";
+  } else if (!have_tm) {
+    tr.status = to_string(tm_status);
+  } else {
+    tr.reference_c = static_cast<double>(tm.reference_c);
+    tr.min_c = static_cast<double>(tm.min_c);
+    tr.max_c = static_cast<double>(tm.max_c);
+    tr.rests = tm.rests;
+    auto fill = [](const TemperatureBias<Scalar>& b, TemperatureBiasResult& out) {
+      out.status = to_string(b.status);
+      out.ok = succeeded(b.status);
+      for (int a = 0; a < 3; ++a) {
+        out.b0[a] = static_cast<double>(b.b0(a));
+        out.b1[a] = static_cast<double>(b.b1(a));
+        out.b2[a] = static_cast<double>(b.b2(a));
+        out.b0_sigma[a] = static_cast<double>(b.b0_sigma(a));
+        out.b1_sigma[a] = static_cast<double>(b.b1_sigma(a));
+        out.b2_sigma[a] = static_cast<double>(b.b2_sigma(a));
+      }
+    };
+    fill(tm.accel, tr.accel);
+    fill(tm.gyro, tr.gyro);
+    tr.status = tr.accel.ok || tr.gyro.ok ? "ok" : to_string(tm_status);
+  }
+  if (tr.status != "ok") {
+    tr.accel.status = tr.gyro.status = tr.status;
+  }
+
+  // The record the device would store: from the calibration itself (float, as on the device),
+  // with the magnetometer and the temperature model where usable (make_record leaves the rest).
+  if (!o.record_path.empty() && run.usable) {
+    CalibrationRecord record;
+    std::uint8_t bytes[kRecordMaxBytes];
+    std::size_t size = 0;
+    Status st = make_record(c, o.device_id, o.sensor_id, record, m.ok ? &mc : nullptr,
+                            have_tm ? &tm : nullptr);
+    if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
+    if (st == Status::kOk) {
+      run.record.assign(bytes, bytes + size);
+    } else {
+      run.record_error = to_string(st);
+    }
   }
   return run.usable ? 0 : 1;
 }
@@ -394,6 +683,12 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
                  "imucal: --initial-rest (%g s) must lie between --min-rest (%g s) and 3600 s, "
                  "--min-rest at most 600 s\n",
                  o.initial_rest, o.min_rest);
+    return 2;
+  }
+  if (o.mag_unit == MagUnit::kCounts && !std::isfinite(o.mag_lsb_per_ut)) {
+    std::fprintf(stderr,
+                 "imucal: --mag-unit counts needs the nominal --mag-lsb-per-ut (counts per uT, "
+                 "from the data sheet): the field bounds are in uT\n");
     return 2;
   }
   if (o.accel_unit == AccelUnit::kCounts && std::isfinite(o.accel_lsb_per_g) &&

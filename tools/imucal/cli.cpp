@@ -9,7 +9,9 @@ namespace {
 
 const char* const kHelp =
     R"(imucal: calibrate an IMU's accelerometer and gyroscope from a hand-turned recording
-(still poses joined by turns), with the streaming calibrator that runs on the device.
+(still poses joined by turns), with the streaming calibrator that runs on the device; with
+mx, my, mz columns also the magnetometer (hard and soft iron), with a temp column also the
+biases' temperature dependence.
 
   imucal calibrate [options] FILE            imucal CSV (or - for stdin)
   imucal calibrate [options] ACC_FILE GYRO_FILE   imu_tk's two `t x y z` files
@@ -20,8 +22,9 @@ const char* const kHelp =
                                              exit 1 if it is not valid (what, at which byte)
 
 Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, gz (optional
-temp, mx, my, mz; any order). Lines starting with # are comments; `# imucal: key=value ...`
-in a comment sets the data options below (the command line wins).
+temp, mx, my, mz; any order). The optional fields may be empty or NaN where the sensor gave no
+reading (a magnetometer slower than the IMU). Lines starting with # are comments;
+`# imucal: key=value ...` in a comment sets the data options below (the command line wins).
 
 Options (calibrate, report):
   --format auto|csv|imutk         auto: two files are imu_tk, one is CSV
@@ -40,17 +43,38 @@ Options (calibrate, report):
   --rate HZ                       the configured sample rate: seconds far from it are counted
   --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
   --double                        run the double-precision reference instead of float
+
+Magnetometer (mx, my, mz; m_cal = S (m_raw + h), h added, S in uT per raw unit):
+  --mag-unit counts|ut|nt|gauss   raw magnetometer unit (default ut)
+  --mag-lsb-per-ut N              nominal counts per uT: required with counts (the field bounds
+                                  and S are in uT)
+  --mag-field-range LO,HI         accepted local field strength, uT (default 20,70)
+  --mag-min-coverage F            fraction of the directions that must hold a sample (default 0.5)
+  --no-mag-align                  keep S symmetric: no rotation into the accelerometer frame
+                                  (default: aligned from the poses, constant dip)
+  A failed magnetometer fit is reported (why) and does not change the exit code.
+
+Temperature (temp, deg C; b(T) = b0 + b1 (T - T0) + b2 (T - T0)^2 replaces the added bias):
+  --temp-order 1|2                linear or quadratic in T (default 1)
+  --temp-min-span DEGC            the poses' temperatures must span this much (default 5)
+  Fitted from the poses' mean readings and temperatures, about the calibration; T0 is the
+  recording's mean temperature. The accelerometer part needs poses in varied orientations.
+
+Outputs:
   --json FILE                     every parameter and sigma, model, poses, configuration
-  --header FILE                   a C/C++ header of constants for firmware
+  --header FILE                   a C/C++ header of constants for firmware (with IMUCAL_MAG_S,
+                                  IMUCAL_MAG_H, IMUCAL_*_B_T for the usable mag/temperature parts)
   --record FILE                   the binary calibration record the firmware stores in flash
-                                  (imucal/record.hpp: little-endian floats, CRC-32)
+                                  (imucal/record.hpp: little-endian floats, CRC-32; with the
+                                  magnetometer and temperature model when usable)
   --device-id N, --sensor-id N    the record's ids (unsigned 32-bit, decimal or 0x hex; default 0)
   --truth FILE                    compare with the truth file of `imucal simulate`
   --svg FILE, -o FILE             the SVG report page (report needs it; calibrate may write it)
   --quiet                         no progress display on the terminal
 
 The header and the record are written only for a usable calibration.
-Exit code: 0 a usable calibration, 1 none (the summary says why), 2 bad usage or input.
+Exit code: 0 a usable calibration (accelerometer and gyroscope), 1 none (the summary says
+why), 2 bad usage or input.
 `imucal record`: 0 a valid record, 1 not valid, 2 bad usage or an unreadable file.
 )";
 

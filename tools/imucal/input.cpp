@@ -454,12 +454,22 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
     get(col_t_, "t", t);
     for (int a = 0; a < 3; ++a) get(col_acc_[a], kAcc[a], r.acc[a]);
     for (int a = 0; a < 3; ++a) get(col_gyro_[a], kGyro[a], r.gyro[a]);
-    r.temp = kNaN;
-    get(col_temp_, "temp", r.temp);
-    for (int a = 0; a < 3; ++a) {
-      r.mag[a] = kNaN;
-      get(col_mag_[a], kMag[a], r.mag[a]);
-    }
+    // The optional columns may be empty or NaN (a magnetometer slower than the IMU, a
+    // temperature read now and then): no reading there, the line is still good.
+    auto optional = [&](int col, const char* name, double& out) {
+      out = kNaN;
+      if (!ok || col < 0) return;
+      const Field& f = fields_[static_cast<std::size_t>(col)];
+      if (f.text.empty()) return;
+      double v = 0;
+      if (parse_number(f.text, v) && std::isnan(v)) return;
+      ok = number_field(in, f, name, out, diag);
+    };
+    optional(col_temp_, "temp", r.temp);
+    for (int a = 0; a < 3; ++a) optional(col_mag_[a], kMag[a], r.mag[a]);
+    // A magnetometer reading is all three axes or none.
+    if (!(std::isfinite(r.mag[0]) && std::isfinite(r.mag[1]) && std::isfinite(r.mag[2])))
+      r.mag[0] = r.mag[1] = r.mag[2] = kNaN;
     r.t = t * time_scale_;
     ok = ok && after_previous(
                    r.t, have_last_, last_t_, in,

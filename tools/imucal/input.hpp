@@ -3,7 +3,9 @@
 // Two text formats, read line by line in bounded memory (a serial logger can pipe in):
 //  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz; optional temp,
 //    mx, my, mz; any order, unknown names ignored), then one sample per line. Fields are
-//    separated by commas and/or blanks. Lines starting with # are comments; a comment
+//    separated by commas and/or blanks. The optional fields may be empty or NaN: no reading at
+//    that sample (a magnetometer slower than the IMU); a magnetometer reading is all three axes
+//    or none. Lines starting with # are comments; a comment
 //    `# imucal: key=value ...` carries settings for the tool (see options.hpp).
 //  - imu_tk: two files of `t x y z` lines, accelerometer and gyroscope, paired by timestamp.
 // A bad line is reported (file, line, column, what was expected) and skipped; the good lines
@@ -29,8 +31,8 @@ struct Record {
   double t = 0;
   double acc[3] = {0, 0, 0};
   double gyro[3] = {0, 0, 0};
-  double temp = kNaN;
-  double mag[3] = {kNaN, kNaN, kNaN};
+  double temp = kNaN;                  // deg C; NaN: none at this sample
+  double mag[3] = {kNaN, kNaN, kNaN};  // input units; NaN (all three): none at this sample
 };
 
 struct Diagnostic {

@@ -35,6 +35,13 @@ constexpr Key kKeys[] = {
     {"accel-range", false, Where::kAnywhere},
     {"gyro-range", false, Where::kAnywhere},
     {"rate", false, Where::kAnywhere},
+    {"mag-unit", false, Where::kAnywhere},
+    {"mag-lsb-per-ut", false, Where::kAnywhere},
+    {"mag-field-range", false, Where::kAnywhere},
+    {"mag-min-coverage", false, Where::kAnywhere},
+    {"temp-order", false, Where::kAnywhere},
+    {"temp-min-span", false, Where::kAnywhere},
+    {"no-mag-align", true, Where::kCommandLineOnly},
     {"refine-gyro-bias", true, Where::kCommandLineOnly},
     {"double", true, Where::kCommandLineOnly},
     {"quiet", true, Where::kCommandLineOnly},
@@ -64,7 +71,7 @@ bool positive(const std::string& key, const std::string& value, double& out, std
 
 // "LO,HI": the full scale in raw units, LO < HI (blanks around either number allowed).
 bool range(const std::string& key, const std::string& value, double& lo, double& hi,
-           std::string& error) {
+           std::string& error, const char* unit = "raw units") {
   auto trimmed = [](std::string_view s) {
     while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
     while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
@@ -76,7 +83,7 @@ bool range(const std::string& key, const std::string& value, double& lo, double&
       !parse_number(trimmed(std::string_view(value).substr(0, comma)), a) ||
       !parse_number(trimmed(std::string_view(value).substr(comma + 1)), b) || !std::isfinite(a) ||
       !std::isfinite(b) || !(a < b)) {
-    error = "--" + key + ": expected LO,HI (raw units, LO < HI), found '" + value + "'";
+    error = "--" + key + ": expected LO,HI (" + unit + ", LO < HI), found '" + value + "'";
     return false;
   }
   lo = a;
@@ -150,6 +157,37 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     return range(key, value, o.gyro_min, o.gyro_max, error);
   } else if (key == "rate") {
     return positive(key, value, o.nominal_rate_hz, error);
+  } else if (key == "mag-unit") {
+    if (!choice({"counts", "ut", "nt", "gauss"}, i)) return false;
+    o.mag_unit = static_cast<MagUnit>(i);
+  } else if (key == "mag-lsb-per-ut") {
+    return positive(key, value, o.mag_lsb_per_ut, error);
+  } else if (key == "mag-field-range") {
+    double lo = kNaN, hi = kNaN;
+    if (!range(key, value, lo, hi, error, "uT")) return false;
+    if (!(lo > 0) || hi > 1000) {
+      error =
+          "--mag-field-range: expected LO,HI in uT with 0 < LO < HI <= 1000 (the Earth's field "
+          "is 22 .. 67 uT), found '" +
+          value + "'";
+      return false;
+    }
+    o.mag_field_min = lo;
+    o.mag_field_max = hi;
+  } else if (key == "mag-min-coverage") {
+    double f = kNaN;
+    if (!parse_number(value, f) || !(f > 0 && f <= 1)) {
+      error = "--mag-min-coverage: expected a fraction in (0, 1], found '" + value + "'";
+      return false;
+    }
+    o.mag_min_coverage = f;
+  } else if (key == "no-mag-align") {
+    o.mag_align = false;
+  } else if (key == "temp-order") {
+    if (!choice({"1", "2"}, i)) return false;
+    o.temp_order = i + 1;
+  } else if (key == "temp-min-span") {
+    return positive(key, value, o.temp_min_span, error);
   } else if (key == "refine-gyro-bias") {
     o.refine_gyro_bias = true;
   } else if (key == "double") {

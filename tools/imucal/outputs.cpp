@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 #include "cli.hpp"
@@ -25,6 +26,17 @@ const char* const kAccelModel =
 const char* const kGyroModel =
     "w_cal = T K (w_raw + b), T = [[1, -gamma_yz, gamma_zy], [gamma_xz, 1, -gamma_zx], "
     "[-gamma_xy, gamma_yx, 1]], K = diag(s_x, s_y, s_z)";
+const char* const kMagModel =
+    "m_cal = S (m_raw + h), S 3x3 (uT per raw unit; symmetric unless aligned to the "
+    "accelerometer frame: then R S_sym), h the hard iron";
+const char* const kMagConvention =
+    "h is ADDED to the raw reading, in raw units (a subtracted offset is -h); |m_cal| is the "
+    "local field strength in uT; after the alignment m_cal is in the accelerometer's frame";
+const char* const kTemperatureModel =
+    "b(T) = b0 + b1 (T - T0) + b2 (T - T0)^2 (b2 = 0 for order 1), T in deg C";
+const char* const kTemperatureConvention =
+    "b(T) replaces the constant ADDED bias b of the sensor's model (a_cal = T K (a_raw + b(T)), "
+    "the same for the gyroscope), raw units; valid over the rests' temperature range";
 const char* const kConvention =
     "b is ADDED to the raw reading, in raw units (imu_tk and x-io Fusion subtract an offset: "
     "offset = -b); s converts raw units to m/s^2 (accelerometer) or rad/s (gyroscope); "
@@ -35,6 +47,19 @@ const char* accel_unit_name(AccelUnit u) {
 }
 const char* gyro_unit_name(GyroUnit u) {
   return u == GyroUnit::kCounts ? "counts" : u == GyroUnit::kDps ? "deg/s" : "rad/s";
+}
+const char* mag_unit_name(MagUnit u) {
+  switch (u) {
+    case MagUnit::kCounts:
+      return "counts";
+    case MagUnit::kUt:
+      return "uT";
+    case MagUnit::kNt:
+      return "nT";
+    case MagUnit::kGauss:
+      return "gauss";
+  }
+  return "?";
 }
 const char* time_unit_name(TimeUnit u) {
   return u == TimeUnit::kSeconds ? "s" : u == TimeUnit::kMilliseconds ? "ms" : "us";
@@ -65,6 +90,96 @@ std::string fmt(const char* format, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, format, v);
   return buf;
+}
+
+// "[x, y, z] +- [sx, sy, sz]" with one format.
+std::string vec_pm(const double* v, const double* sd, const char* format) {
+  std::string r = "[";
+  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt(format, v[a]);
+  r += "] +- [";
+  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt("%.2e", sd[a]);
+  return r + "]";
+}
+
+void print_mag_summary(const Run& run, const Options& o, std::FILE* out) {
+  const MagResult& m = run.mag;
+  if (!m.present) {
+    std::fprintf(out, "\nmagnetometer   none (%s)\n", m.status.c_str());
+    return;
+  }
+  const char* mu = mag_unit_name(o.mag_unit);
+  std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
+  std::fprintf(out,
+               "  status: %s; %ld readings, %d held (one per direction cell), %d fitted, %d "
+               "iterations\n",
+               m.status.c_str(), m.readings, static_cast<int>(m.held.size()), m.samples,
+               m.iterations);
+  if (m.readings == 0) return;
+  std::fprintf(out,
+               "  coverage %s %% of the directions (needs %.0f %%), field %s uT (accepted %g .. "
+               "%g), fit error %s %%\n",
+               fmt("%.1f", 100.0 * m.coverage).c_str(), 100.0 * o.mag_min_coverage,
+               fmt("%.3f", m.field_ut).c_str(), o.mag_field_min, o.mag_field_max,
+               fmt("%.3f", m.fit_error_pct).c_str());
+  if (!m.ok) {
+    std::fprintf(out, "  NOT calibrated: %s\n", m.status.c_str());
+    return;
+  }
+  std::fprintf(out, "  quality %s, nominal %g uT per %s\n", m.quality.c_str(), m.unit_ut, mu);
+  std::fprintf(out, "  h   %s  %s (added)\n",
+               vec_pm(m.hard_iron, m.hard_iron_sigma, "% .6g").c_str(), mu);
+  for (int r = 0; r < 3; ++r)
+    std::fprintf(out, "  S%s [% .7e, % .7e, % .7e]  uT/%s\n", r == 0 ? "  " : "  ",
+                 m.soft_iron[r][0], m.soft_iron[r][1], m.soft_iron[r][2], mu);
+  std::fprintf(out,
+               "  sigma of the symmetric S (S00 S11 S22 S01 S02 S12): %.2e %.2e %.2e %.2e %.2e "
+               "%.2e\n",
+               m.soft_iron_sigma[0], m.soft_iron_sigma[1], m.soft_iron_sigma[2],
+               m.soft_iron_sigma[3], m.soft_iron_sigma[4], m.soft_iron_sigma[5]);
+  if (m.aligned) {
+    const double angle = std::sqrt(m.rotation[0] * m.rotation[0] + m.rotation[1] * m.rotation[1] +
+                                   m.rotation[2] * m.rotation[2]);
+    std::fprintf(out,
+                 "  aligned to the accelerometer frame over %d rests: dip %.3f +- %.3f deg, "
+                 "rotation %.3f deg (rotation vector %s rad)\n",
+                 m.rests, m.dip_deg, m.dip_sigma_deg, angle * kDeg,
+                 vec_pm(m.rotation, m.rotation_sigma, "% .4f").c_str());
+  } else {
+    std::fprintf(out, "  not aligned to the accelerometer frame (%d rests): %s\n", m.rests,
+                 m.alignment_status.c_str());
+  }
+}
+
+void print_temperature_summary(const Run& run, const Options& o, std::FILE* out) {
+  const TemperatureResult& t = run.temperature;
+  if (!t.present) {
+    std::fprintf(out, "\ntemperature    no model (%s)\n", t.status.c_str());
+    return;
+  }
+  std::fprintf(out, "\ntemperature    %s, replacing the constant bias\n", kTemperatureModel);
+  if (t.status != "ok" && !std::isfinite(t.reference_c)) {
+    std::fprintf(out, "  no model: %s (%zu rests with a temperature)\n", t.status.c_str(),
+                 t.rest_list.size());
+    return;
+  }
+  std::fprintf(out,
+               "  order %d, T0 %.2f deg C, %d rests over %.2f .. %.2f deg C (span needed %g)\n",
+               t.order, t.reference_c, t.rests, t.min_c, t.max_c, o.temp_min_span);
+  if (t.passes > 0)
+    std::fprintf(out,
+                 "  the calibration above ran again on the readings with this model applied (%d "
+                 "pass%s; its biases are those at T0)\n",
+                 t.passes, t.passes == 1 ? "" : "es");
+  auto sensor = [&](const char* name, const TemperatureBiasResult& b, const char* unit) {
+    std::fprintf(out, "  %s: %s\n", name, b.ok ? "ok" : ("NOT modelled: " + b.status).c_str());
+    if (!b.ok) return;
+    std::fprintf(out, "    b0  %s  %s\n", vec_pm(b.b0, b.b0_sigma, "% .6e").c_str(), unit);
+    std::fprintf(out, "    b1  %s  %s/degC\n", vec_pm(b.b1, b.b1_sigma, "% .6e").c_str(), unit);
+    if (t.order >= 2)
+      std::fprintf(out, "    b2  %s  %s/degC^2\n", vec_pm(b.b2, b.b2_sigma, "% .6e").c_str(), unit);
+  };
+  sensor("accelerometer", t.accel, accel_unit_name(o.accel_unit));
+  sensor("gyroscope", t.gyro, gyro_unit_name(o.gyro_unit));
 }
 
 }  // namespace
@@ -135,6 +250,8 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  fmt("%.3f", run.gyro_rms_before).c_str(), fmt("%.3f", run.gyro_rms_after).c_str(),
                  run.have_nominal_gyro ? "" : " (before: give the nominal --gyro-lsb-per-dps)");
   }
+  print_mag_summary(run, o, out);
+  print_temperature_summary(run, o, out);
   std::fprintf(out, "\nquality  %s: %s\n", run.quality.c_str(),
                run.usable ? "usable" : "NOT usable (see the statuses above)");
 }
@@ -156,6 +273,100 @@ bool write_text_file(const std::string& path, const std::string& text) {
   }
   return true;
 }
+
+namespace {
+
+Json vec3(const double* v) { return Json::array({number(v[0]), number(v[1]), number(v[2])}); }
+
+// {"x": {"value", "sigma"}, ...}
+Json vec_sigma(const double* v, const double* sd) {
+  Json r;
+  static const char* const kAxes[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) r[kAxes[a]] = {{"value", number(v[a])}, {"sigma", number(sd[a])}};
+  return r;
+}
+
+Json mag_json(const Run& run, const Options& o) {
+  const MagResult& m = run.mag;
+  Json j;
+  j["model"] = kMagModel;
+  j["convention"] = kMagConvention;
+  j["unit_in"] = mag_unit_name(o.mag_unit);
+  j["unit_out"] = "uT";
+  j["present"] = m.present;
+  j["status"] = m.status;
+  j["usable"] = m.ok;
+  j["readings"] = m.readings;
+  j["samples_held"] = m.held.size();
+  j["samples_fitted"] = m.samples;
+  j["iterations"] = m.iterations;
+  j["coverage"] = number(m.coverage);
+  j["field_ut"] = number(m.field_ut);
+  j["fit_error_pct"] = number(m.fit_error_pct);
+  j["quality"] = m.quality;
+  if (m.ok) {
+    Json s = Json::array();
+    for (int r = 0; r < 3; ++r) s.push_back(vec3(m.soft_iron[r]));
+    j["soft_iron"] = s;
+    j["hard_iron"] = vec_sigma(m.hard_iron, m.hard_iron_sigma);
+    static const char* const kSym[6] = {"S00", "S11", "S22", "S01", "S02", "S12"};
+    Json ss;
+    for (int k = 0; k < 6; ++k) ss[kSym[k]] = number(m.soft_iron_sigma[k]);
+    j["soft_iron_sigma_symmetric"] = ss;
+  }
+  Json a;
+  a["status"] = m.alignment_status;
+  a["aligned"] = m.aligned;
+  a["rests"] = m.rests;
+  if (m.aligned) {
+    a["dip_deg"] = {{"value", number(m.dip_deg)}, {"sigma", number(m.dip_sigma_deg)}};
+    a["rotation_rad"] = vec_sigma(m.rotation, m.rotation_sigma);
+    const double angle = std::sqrt(m.rotation[0] * m.rotation[0] + m.rotation[1] * m.rotation[1] +
+                                   m.rotation[2] * m.rotation[2]);
+    a["rotation_angle_deg"] = angle * kDeg;
+  }
+  j["alignment"] = a;
+  return j;
+}
+
+Json temperature_json(const Run& run, const Options& o) {
+  const TemperatureResult& t = run.temperature;
+  Json j;
+  j["model"] = kTemperatureModel;
+  j["convention"] = kTemperatureConvention;
+  j["present"] = t.present;
+  j["status"] = t.status;
+  j["order"] = t.order;
+  j["reference_c"] = number(t.reference_c);
+  j["min_c"] = number(t.min_c);
+  j["max_c"] = number(t.max_c);
+  j["rests_fitted"] = t.rests;
+  j["passes"] = t.passes;
+  auto sensor = [&](const TemperatureBiasResult& b, const char* unit) {
+    Json s;
+    s["status"] = b.status;
+    s["usable"] = b.ok;
+    s["unit"] = unit;
+    if (b.ok) {
+      s["b0"] = vec_sigma(b.b0, b.b0_sigma);
+      s["b1"] = vec_sigma(b.b1, b.b1_sigma);
+      if (t.order >= 2) s["b2"] = vec_sigma(b.b2, b.b2_sigma);
+    }
+    return s;
+  };
+  j["accelerometer"] = sensor(t.accel, accel_unit_name(o.accel_unit));
+  j["gyroscope"] = sensor(t.gyro, gyro_unit_name(o.gyro_unit));
+  Json rests = Json::array();
+  for (const TemperatureRest& r : t.rest_list)
+    rests.push_back({{"temperature_c", number(r.temperature_c)},
+                     {"samples", r.samples},
+                     {"accel_mean", vec3(r.accel_mean)},
+                     {"gyro_mean", vec3(r.gyro_mean)}});
+  j["rests"] = rests;
+  return j;
+}
+
+}  // namespace
 
 bool write_json(const Run& run, const Options& o, const std::string& path) {
   Json j;
@@ -194,6 +405,14 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   config["accel_range"] = range(o.accel_min, o.accel_max);
   config["gyro_range"] = range(o.gyro_min, o.gyro_max);
   config["nominal_rate_hz"] = o.nominal_rate_hz > 0 ? Json(o.nominal_rate_hz) : Json(nullptr);
+  config["mag_unit"] = mag_unit_name(o.mag_unit);
+  config["mag_lsb_per_ut"] = number(o.mag_lsb_per_ut);
+  config["mag_unit_ut"] = number(run.mag.unit_ut);
+  config["mag_field_range_ut"] = Json::array({o.mag_field_min, o.mag_field_max});
+  config["mag_min_coverage"] = o.mag_min_coverage;
+  config["mag_align"] = o.mag_align;
+  config["temp_order"] = o.temp_order;
+  config["temp_min_span_c"] = o.temp_min_span;
   config["from_files"] = o.from_files;
   j["configuration"] = config;
 
@@ -238,6 +457,8 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   gyro["residual_deg"] = {{"move_rms_before", number(run.gyro_rms_before)},
                           {"move_rms_after", number(run.gyro_rms_after)}};
   j["gyroscope"] = gyro;
+  j["magnetometer"] = mag_json(run, o);
+  j["temperature"] = temperature_json(run, o);
   j["quality"] = run.quality;
   j["usable"] = run.usable;
 
@@ -306,8 +527,35 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
     << " * Apply with one 3x3 multiply-add per sensor, M = T K precomputed (row-major):\n"
     << " *   a_cal[i] = sum_j IMUCAL_ACCEL_M[i][j] * (a_raw[j] + IMUCAL_ACCEL_B[j])\n"
     << " *   w_cal[i] = sum_j IMUCAL_GYRO_M[i][j]  * (w_raw[j] + IMUCAL_GYRO_B[j])\n"
-    << " * The parameters and their one-sigma uncertainties follow in the model's order.\n"
-    << " */\n"
+    << " * The parameters and their one-sigma uncertainties follow in the model's order.\n";
+  const MagResult& m = run.mag;
+  const TemperatureResult& t = run.temperature;
+  const bool temp_accel = t.present && t.accel.ok, temp_gyro = t.present && t.gyro.ok;
+  if (m.ok)
+    h << " *\n"
+      << " * magnetometer:  " << kMagModel << "\n"
+      << " * " << kMagConvention << ".\n"
+      << " * Raw unit in: " << mag_unit_name(o.mag_unit) << ". Out: uT"
+      << (m.aligned ? ", in the accelerometer's frame" : " (not aligned to the accelerometer)")
+      << ".\n"
+      << " *   m_cal[i] = sum_j IMUCAL_MAG_S[i][j] * (m_raw[j] + IMUCAL_MAG_H[j])\n";
+  else
+    h << " *\n * magnetometer: none (" << m.status << ")\n";
+  if (temp_accel || temp_gyro)
+    h << " *\n"
+      << " * temperature:   " << kTemperatureModel << ".\n"
+      << " * " << kTemperatureConvention << " [IMUCAL_TEMP_MIN, IMUCAL_TEMP_MAX].\n"
+      << " * Rows of IMUCAL_*_B_T: b0, b1 (per deg C), b2 (per deg C^2); with d = T - "
+         "IMUCAL_TEMP_T0\n"
+      << " *   b[j] = B_T[0][j] + d * (B_T[1][j] + d * B_T[2][j])   in place of IMUCAL_*_B[j]\n"
+      << " * for "
+      << (temp_accel && temp_gyro ? "both sensors"
+          : temp_accel            ? "the accelerometer only"
+                                  : "the gyroscope only")
+      << ".\n";
+  else
+    h << " *\n * temperature model: none (" << t.status << ")\n";
+  h << " */\n"
     << "#ifndef IMUCAL_CALIBRATION_H\n#define IMUCAL_CALIBRATION_H\n\n";
   h << "static const float IMUCAL_ACCEL_M[3][3] = " << rows(row_major(accel_matrix(pa))) << ";\n";
   h << "static const float IMUCAL_ACCEL_B[3] = {" << values(run.accel_params, 6, 3) << "};\n";
@@ -321,6 +569,39 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
        "b_z */\n";
   h << "static const float IMUCAL_GYRO_PARAMS[12] = {" << values(run.gyro_params, 0, 12) << "};\n";
   h << "static const float IMUCAL_GYRO_SIGMA[12] = {" << values(run.gyro_sigma, 0, 12) << "};\n";
+  auto define = [&](const char* name, double v, const char* comment) {
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    std::string lit = buf;
+    if (lit.find_first_of(".e") == std::string::npos) lit += ".0";
+    h << "#define " << name << " " << lit << "f /* " << comment << " */\n";
+  };
+  if (m.ok) {
+    std::array<double, 9> sm{};
+    for (std::size_t r = 0; r < 3; ++r)
+      for (std::size_t c = 0; c < 3; ++c) sm[3 * r + c] = m.soft_iron[r][c];
+    h << "\n/* magnetometer, m_cal = S (m_raw + h): S in uT per raw unit, h in raw units (added) "
+         "*/\n";
+    h << "static const float IMUCAL_MAG_S[3][3] = " << rows(sm) << ";\n";
+    h << "static const float IMUCAL_MAG_H[3] = {" << values(m.hard_iron, 0, 3) << "};\n";
+    h << "static const float IMUCAL_MAG_H_SIGMA[3] = {" << values(m.hard_iron_sigma, 0, 3)
+      << "};\n";
+    define("IMUCAL_MAG_FIELD_UT", m.field_ut, "uT, the local field strength |m_cal|");
+    h << "#define IMUCAL_MAG_ALIGNED " << (m.aligned ? 1 : 0)
+      << " /* 1: S includes the rotation into the accelerometer frame */\n";
+  }
+  if (temp_accel || temp_gyro) {
+    h << "\n/* temperature model of the added biases: rows b0, b1, b2 (see above) */\n";
+    define("IMUCAL_TEMP_T0", t.reference_c, "deg C, the reference temperature");
+    define("IMUCAL_TEMP_MIN", t.min_c, "deg C, lowest rest temperature fitted");
+    define("IMUCAL_TEMP_MAX", t.max_c, "deg C, highest rest temperature fitted");
+    auto bias_rows = [&](const TemperatureBiasResult& b) {
+      return "{{" + values(b.b0, 0, 3) + "}, {" + values(b.b1, 0, 3) + "}, {" + values(b.b2, 0, 3) +
+             "}}";
+    };
+    if (temp_accel)
+      h << "static const float IMUCAL_ACCEL_B_T[3][3] = " << bias_rows(t.accel) << ";\n";
+    if (temp_gyro) h << "static const float IMUCAL_GYRO_B_T[3][3] = " << bias_rows(t.gyro) << ";\n";
+  }
   std::snprintf(buf, sizeof buf, "%.9g", o.gravity);
   h << "\n#define IMUCAL_GRAVITY " << buf << "f /* m/s^2, the calibrated norm */\n";
   h << "#define IMUCAL_QUALITY " << run.quality_level << " /* 0 none, 1 poor, 2 fair, 3 good */\n";
@@ -405,8 +686,14 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
                static_cast<unsigned long>(r.device_id), static_cast<unsigned long>(r.device_id),
                static_cast<unsigned long>(r.sensor_id), static_cast<unsigned long>(r.sensor_id));
   const bool has_accel = (r.parts & kRecordAccel) != 0, has_gyro = (r.parts & kRecordGyro) != 0;
-  std::fprintf(out, "parts    %s%s%s\n", has_accel ? "accelerometer" : "",
-               has_accel && has_gyro ? ", " : "", has_gyro ? "gyroscope" : "");
+  const bool has_mag = (r.parts & kRecordMag) != 0;
+  const bool has_temp = (r.parts & kRecordTemperature) != 0;
+  std::string parts;
+  for (const auto& [bit, name] :
+       {std::make_pair(has_accel, "accelerometer"), std::make_pair(has_gyro, "gyroscope"),
+        std::make_pair(has_mag, "magnetometer"), std::make_pair(has_temp, "temperature model")})
+    if (bit) parts += (parts.empty() ? "" : ", ") + std::string(name);
+  std::fprintf(out, "parts    %s\n", parts.c_str());
   if (r.unknown_sections > 0)
     std::fprintf(out, "         %d section(s) of a newer format skipped\n", r.unknown_sections);
   std::fprintf(out, "rate     %s (measured over the initial rest)\n",
@@ -443,6 +730,58 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
     std::fprintf(out, "  residual per move (sine of the gravity angle), RMS: %s (%s deg)\n",
                  fmt("%.3e", rms).c_str(),
                  fmt("%.3f", std::asin(std::min(rms, 1.0)) * kDeg).c_str());
+  }
+  if (has_mag) {
+    const MagCalibration<float>& m = r.mag;
+    std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
+    std::fprintf(out, "  %d samples, quality %s, field %s uT, fit error %s %%, coverage %s %%\n",
+                 m.samples, kQuality[static_cast<int>(m.quality) & 3],
+                 fmt("%.3f", static_cast<double>(m.field_ut)).c_str(),
+                 fmt("%.3f", static_cast<double>(m.fit_error_pct)).c_str(),
+                 fmt("%.1f", 100.0 * static_cast<double>(m.coverage)).c_str());
+    double hv[3], hs[3];
+    for (int a = 0; a < 3; ++a) {
+      hv[a] = static_cast<double>(m.hard_iron(a));
+      hs[a] = static_cast<double>(m.hard_iron_sigma(a));
+    }
+    std::fprintf(out, "  h   %s  raw (added)\n", vec_pm(hv, hs, "% .6g").c_str());
+    for (int i = 0; i < 3; ++i)
+      std::fprintf(out, "  S   [% .7e, % .7e, % .7e]  uT/raw\n",
+                   static_cast<double>(m.soft_iron(i, 0)), static_cast<double>(m.soft_iron(i, 1)),
+                   static_cast<double>(m.soft_iron(i, 2)));
+    if (succeeded(m.alignment_status))
+      std::fprintf(out, "  aligned to the accelerometer frame: dip %.3f +- %.3f deg\n",
+                   static_cast<double>(m.dip_deg), static_cast<double>(m.dip_sigma_deg));
+    else
+      std::fprintf(out, "  not aligned to the accelerometer frame\n");
+  }
+  if (has_temp) {
+    const TemperatureModel<float>& t = r.temperature;
+    std::fprintf(out, "\ntemperature    %s, replacing the constant bias\n", kTemperatureModel);
+    std::fprintf(out, "  order %d, T0 %.2f deg C, %d rests over %.2f .. %.2f deg C\n", t.order,
+                 static_cast<double>(t.reference_c), t.rests, static_cast<double>(t.min_c),
+                 static_cast<double>(t.max_c));
+    auto sensor = [&](const char* name, const TemperatureBias<float>& b) {
+      if (!succeeded(b.status)) {
+        std::fprintf(out, "  %s: not modelled\n", name);
+        return;
+      }
+      std::fprintf(out, "  %s:\n", name);
+      auto row = [&](const char* what, const Vector3<float>& v, const Vector3<float>& sd,
+                     const char* unit) {
+        double x[3], y[3];
+        for (int a = 0; a < 3; ++a) {
+          x[a] = static_cast<double>(v(a));
+          y[a] = static_cast<double>(sd(a));
+        }
+        std::fprintf(out, "    %s  %s  %s\n", what, vec_pm(x, y, "% .6e").c_str(), unit);
+      };
+      row("b0", b.b0, b.b0_sigma, "raw");
+      row("b1", b.b1, b.b1_sigma, "raw/degC");
+      if (t.order >= 2) row("b2", b.b2, b.b2_sigma, "raw/degC^2");
+    };
+    sensor("accelerometer", t.accel);
+    sensor("gyroscope", t.gyro);
   }
   std::fprintf(out, "\nquality  %s\n", kQuality[static_cast<int>(c.quality) & 3]);
   std::fprintf(out,

@@ -3,9 +3,13 @@
 // One self-contained SVG (no scripts, no external resources, no fonts to fetch): a title block,
 // the raw accelerometer and gyroscope over time with the rests shaded and numbered, |a| before
 // and after the calibration, the per-pose and per-move residuals, and the pose directions on two
-// hemispheres. Long recordings are drawn with the minimum and maximum of each pixel column, so
-// the page's size does not grow with the number of samples and spikes stay visible. Every
-// coordinate is checked: a non-finite point is skipped, never written.
+// hemispheres; with a magnetometer, its raw readings and the calibrated ones in three projections
+// (the raw ellipsoid against the calibrated sphere, the collector's samples marked); with a
+// temperature column, the biases against temperature (the rests and the fitted b(T)). Long
+// recordings are drawn with the minimum and maximum of each pixel column, and point clouds are
+// decimated, so the page's size does not grow with the number of samples and spikes stay
+// visible. Every coordinate is checked: a non-finite point is skipped, never written.
+#include <Eigen/LU>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -597,6 +601,31 @@ const char* quality_colour(const std::string& q) {
   return "#757575";
 }
 
+// One line each for the title block: what the magnetometer's fit and the temperature model gave.
+std::string mag_summary(const MagResult& m) {
+  std::string s = m.status.empty() ? std::string("?") : m.status;
+  if (m.ok)
+    s += " \u00b7 field " + value_text(m.field_ut) + " \u00b5T \u00b7 fit error " +
+         value_text(m.fit_error_pct) + " % \u00b7 coverage " + value_text(100 * m.coverage) +
+         " % \u00b7 quality " + m.quality;
+  else if (std::isfinite(m.coverage))
+    s += " \u00b7 coverage " + value_text(100 * m.coverage) + " %";
+  if (m.ok && m.aligned) s += " \u00b7 aligned, dip " + printf_string("%.1f", m.dip_deg) + "\u00b0";
+  return s;
+}
+
+std::string temperature_summary(const TemperatureResult& t) {
+  std::string s = t.status.empty() ? std::string("?") : t.status;
+  if (std::isfinite(t.min_c) && std::isfinite(t.max_c))
+    s += " \u00b7 " + std::to_string(t.rests) + " rests over " + printf_string("%.1f", t.min_c) +
+         " \u2026 " + printf_string("%.1f", t.max_c) + " \u00b0C";
+  if (std::isfinite(t.reference_c))
+    s += " \u00b7 T0 " + printf_string("%.2f", t.reference_c) + " \u00b0C";
+  s += " \u00b7 accelerometer " + (t.accel.status.empty() ? std::string("?") : t.accel.status) +
+       ", gyroscope " + (t.gyro.status.empty() ? std::string("?") : t.gyro.status);
+  return s;
+}
+
 double title_block(Page& page, const Run& run, const Options& options) {
   page.text(30, 38, "imucal calibration report", "class=\"t\"");
   // Quality badge, top right.
@@ -631,7 +660,7 @@ double title_block(Page& page, const Run& run, const Options& options) {
   struct Row {
     std::string key, value;
   };
-  const Row rows[] = {
+  std::vector<Row> rows = {
       {"input", files},
       {"recording", recording},
       {"calibrator", or_unknown(run.scalar) + " \u00b7 gravity " + printf_string("%.6g", g) +
@@ -647,6 +676,10 @@ double title_block(Page& page, const Run& run, const Options& options) {
            value_text(run.gyro_rms_before) + " \u2192 " + value_text(run.gyro_rms_after) + " deg" +
            (run.gyro_bias_refined ? " \u00b7 bias refined" : "")},
   };
+  if (run.mag.present)
+    rows.push_back({"magnetometer", elide(clean_utf8(mag_summary(run.mag)), 140)});
+  if (run.temperature.present)
+    rows.push_back({"temperature", elide(clean_utf8(temperature_summary(run.temperature)), 140)});
   double y = 66;
   for (const Row& r : rows) {
     page.text(30, y, r.key, "class=\"k\"");
@@ -1072,6 +1105,521 @@ double sphere_section(Page& page, double y, const Run& run) {
   return cy + r + 70;
 }
 
+// --- Magnetometer ----------------------------------------------------------------------------
+
+constexpr const char* kRawCloudColour = "#78909c";
+constexpr const char* kCalCloudColour = "#1565c0";
+constexpr const char* kHeldColour = "#ef6c00";
+constexpr const char* kFitColour = "#111";
+constexpr std::size_t kCloudPoints = 2000;  // readings drawn per cloud, at most
+
+// A square scatter panel with the same scale on both axes, so that a sphere stays round.
+struct Square {
+  double x = 0, y = 0, size = 100;  // pixels
+  double cx = 0, cy = 0, half = 1;  // data centre and half-span (both axes)
+  double px(double v) const { return x + 0.5 * size + (v - cx) / half * 0.5 * size; }
+  double py(double v) const { return y + 0.5 * size - (v - cy) / half * 0.5 * size; }
+  bool inside(double vx, double vy) const {
+    return std::fabs(vx - cx) <= half && std::fabs(vy - cy) <= half;
+  }
+};
+
+void square_grid(Page& page, const Square& s, const std::string& x_label,
+                 const std::string& y_label) {
+  const double step = nice_step(2 * s.half, 5);
+  for (double v : ticks(s.cx - s.half, s.cx + s.half, step)) {
+    const double x = s.px(v);
+    page.line(x, s.y, x, s.y + s.size, "class=\"g\"");
+    page.line(x, s.y + s.size, x, s.y + s.size + 4, "class=\"tk\"");
+    page.text(x, s.y + s.size + 16, tick_text(v, step), "class=\"n\" text-anchor=\"middle\"");
+  }
+  for (double v : ticks(s.cy - s.half, s.cy + s.half, step)) {
+    const double y = s.py(v);
+    page.line(s.x, y, s.x + s.size, y, "class=\"g\"");
+    page.line(s.x - 4, y, s.x, y, "class=\"tk\"");
+    page.text(s.x - 7, y + 4, tick_text(v, step), "class=\"n\" text-anchor=\"end\"");
+  }
+  page.text(s.x + 0.5 * s.size, s.y + s.size + 32, x_label, "class=\"ax\" text-anchor=\"middle\"");
+  page.vertical_text(s.x - 52, s.y + 0.5 * s.size, y_label, "class=\"ax\"");
+}
+
+// Points as one path of tiny strokes (round caps make them dots): a few bytes each, whole
+// pixels, one per pixel. Points outside the panel are not drawn.
+std::string dot_path(const Square& s, const std::vector<Vector3<double>>& points, int i, int j) {
+  std::string d;
+  std::vector<long> seen;
+  seen.reserve(points.size());
+  for (const Vector3<double>& p : points) {
+    if (!std::isfinite(p(i)) || !std::isfinite(p(j)) || !s.inside(p(i), p(j))) continue;
+    const long x = std::lround(s.px(p(i))), y = std::lround(s.py(p(j)));
+    seen.push_back(x * 100000 + y);  // pixels: 0 .. 99999 (the page is far smaller)
+  }
+  std::sort(seen.begin(), seen.end());
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  // Relative moves between whole pixels, in sorted order: "m3-5h0" (zero-length strokes
+  // with round caps are dots).
+  long px = 0, py = 0;
+  bool first = true;
+  for (long key : seen) {
+    const long x = key / 100000, y = key % 100000;
+    const long dx = first ? x : x - px, dy = first ? y : y - py;
+    d += (first ? "M" : "m") + std::to_string(dx) + (dy < 0 ? "" : " ") + std::to_string(dy) + "h0";
+    px = x;
+    py = y;
+    first = false;
+  }
+  return d;
+}
+
+// Small rings (the collector's samples), as one path.
+std::string ring_path(const Square& s, const std::vector<Vector3<double>>& points, int i, int j,
+                      double r) {
+  std::string d;
+  const std::string rs = coord(r), ds = coord(2 * r);
+  for (const Vector3<double>& p : points) {
+    if (!std::isfinite(p(i)) || !std::isfinite(p(j)) || !s.inside(p(i), p(j))) continue;
+    d += "M" + coord(s.px(p(i)) - r) + " " + coord(s.py(p(j))) + "a" + rs + " " + rs + " 0 1 0 " +
+         ds + " 0a" + rs + " " + rs + " 0 1 0 -" + ds + " 0";
+  }
+  return d;
+}
+
+// The outline of the ellipsoid {c + A u : |u| = 1} projected on the axes i, j: the ellipse of
+// the 2x2 block of A A^T (through its Cholesky factor).
+std::string ellipse_path(const Square& s, const Vector3<double>& c, const Matrix3<double>& a, int i,
+                         int j) {
+  const Matrix3<double> q = a * a.transpose();
+  const double l00 = std::sqrt(q(i, i));
+  if (!(l00 > 0) || !std::isfinite(l00)) return {};
+  const double l10 = q(j, i) / l00;
+  const double l11 = std::sqrt(std::max(q(j, j) - l10 * l10, 0.0));
+  PathBuilder path;
+  for (int k = 0; k <= 96; ++k) {
+    const double t = 2 * kPi * k / 96, u = std::cos(t), v = std::sin(t);
+    const double x = c(i) + l00 * u, y = c(j) + l10 * u + l11 * v;
+    path.point(s.px(x), s.py(y));
+  }
+  return path.str();
+}
+
+double mag_section(Page& page, double y, const Run& run, const Options& options,
+                   const std::vector<Sample>& samples) {
+  const MagResult& mag = run.mag;
+  // The readings drawn: every k-th finite one, at most ~kCloudPoints.
+  std::size_t finite = 0;
+  for (const Sample& s : samples) finite += finite3(s.mag);
+  if (finite == 0 && mag.held.empty() && !mag.present) return y;
+  const std::size_t stride = std::max<std::size_t>(1, (finite + kCloudPoints - 1) / kCloudPoints);
+  std::vector<Vector3<double>> raw, held;
+  raw.reserve(finite / stride + 1);
+  std::size_t k = 0;
+  for (const Sample& s : samples) {
+    if (!finite3(s.mag)) continue;
+    if (k++ % stride == 0) raw.emplace_back(s.mag[0], s.mag[1], s.mag[2]);
+  }
+  for (const std::array<double, 3>& h : mag.held)
+    if (finite3(h.data())) held.emplace_back(h[0], h[1], h[2]);
+
+  Matrix3<double> soft;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) soft(r, c) = mag.soft_iron[r][c];
+  const Vector3<double> hard(mag.hard_iron[0], mag.hard_iron[1], mag.hard_iron[2]);
+  const bool calibrated = mag.ok && soft.allFinite() && hard.allFinite() &&
+                          std::isfinite(mag.field_ut) && mag.field_ut > 0 &&
+                          std::fabs(soft.determinant()) > 0;
+
+  const std::string unit = mag_unit_name(options.mag_unit);
+  section_title(page, y, "Magnetometer: raw (" + unit + ") and calibrated (\u00b5T)");
+  std::vector<LegendItem> items;
+  items.push_back({stride > 1 ? "readings (1 in " + std::to_string(stride) + ")" : "readings",
+                   kRawCloudColour, LegendItem::kBox});
+  if (!held.empty()) items.push_back({"held by the collector", kHeldColour, LegendItem::kBox});
+  if (calibrated)
+    items.push_back({"fitted ellipsoid / field sphere", kFitColour, LegendItem::kDashed});
+  legend(page, y, items);
+
+  const int axes[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  const char* names[3] = {"x", "y", "z"};
+  const double size = 290, gap = (kPlotWidth - 3 * size) / 2;
+  const double held_r = 3.2;
+
+  // Raw: one scale for the three panels, each centred on its data; the range from the 0.1 % and
+  // 99.9 % quantiles per axis (a glitch does not squash the cloud) and the fitted ellipsoid.
+  double lo[3], hi[3];
+  const Matrix3<double> to_raw =
+      calibrated ? Matrix3<double>(mag.field_ut * soft.inverse()) : Matrix3<double>::Identity();
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> v;
+    for (const auto& p : raw) v.push_back(p(a));
+    for (const auto& p : held) v.push_back(p(a));
+    lo[a] = quantile(v, 0.001);
+    hi[a] = quantile(v, 0.999);
+    if (calibrated) {
+      const double e = to_raw.row(a).norm();  // the ellipsoid's half-extent along axis a
+      if (std::isfinite(e)) {
+        lo[a] = std::isfinite(lo[a]) ? std::min(lo[a], -hard(a) - e) : -hard(a) - e;
+        hi[a] = std::isfinite(hi[a]) ? std::max(hi[a], -hard(a) + e) : -hard(a) + e;
+      }
+    }
+  }
+  double half = 0;
+  for (int a = 0; a < 3; ++a)
+    if (std::isfinite(lo[a]) && std::isfinite(hi[a])) half = std::max(half, 0.5 * (hi[a] - lo[a]));
+  half = half > 0 ? 1.08 * half : 1;
+
+  double row_y = y + 16;
+  std::size_t outside = 0;
+  for (int pi = 0; pi < 3; ++pi) {
+    const int i = axes[pi][0], j = axes[pi][1];
+    Square s;
+    s.x = kPlotLeft + pi * (size + gap);
+    s.y = row_y;
+    s.size = size;
+    s.cx = std::isfinite(lo[i]) ? 0.5 * (lo[i] + hi[i]) : 0;
+    s.cy = std::isfinite(lo[j]) ? 0.5 * (lo[j] + hi[j]) : 0;
+    s.half = half;
+    square_grid(page, s, std::string("m") + names[i] + " raw (" + unit + ")",
+                std::string("m") + names[j] + " raw (" + unit + ")");
+    for (const auto& p : raw) outside += pi == 0 && !s.inside(p(i), p(j));
+    page.path(dot_path(s, raw, i, j), std::string("fill=\"none\" stroke=\"") + kRawCloudColour +
+                                          "\" stroke-width=\"2.4\" stroke-linecap=\"round\"");
+    if (calibrated) {
+      page.path(ellipse_path(s, -hard, to_raw, i, j),
+                std::string("fill=\"none\" stroke=\"") + kFitColour +
+                    "\" stroke-width=\"1.3\" stroke-dasharray=\"6 4\"");
+      const double hx = s.px(-hard(i)), hy = s.py(-hard(j));
+      if (s.inside(-hard(i), -hard(j))) {
+        page.line(hx - 6, hy, hx + 6, hy, "stroke=\"#111\" stroke-width=\"1.5\"");
+        page.line(hx, hy - 6, hx, hy + 6, "stroke=\"#111\" stroke-width=\"1.5\"");
+      }
+    }
+    page.path(ring_path(s, held, i, j, held_r),
+              std::string("fill=\"none\" stroke=\"") + kHeldColour + "\" stroke-width=\"1.2\"");
+    if (raw.empty() && held.empty())
+      page.text(s.x + 0.5 * s.size, s.y + 0.5 * s.size, "no readings",
+                "class=\"cap\" text-anchor=\"middle\"");
+    page.rect(s.x, s.y, s.size, s.size, "class=\"fr\"");
+    page.text(s.x + 6, s.y + 15, std::string(names[i]) + "\u2013" + names[j],
+              "class=\"k\" fill-opacity=\"0.8\"");
+  }
+  row_y += size + 58;
+  std::string raw_note =
+      "Raw: an ellipsoid off centre (hard iron h shifts it, soft iron S shapes it)";
+  if (calibrated) raw_note += "; dashed: the fitted ellipsoid's outline, cross: its centre \u2212h";
+  raw_note += ".";
+  if (outside > 0)
+    raw_note +=
+        " " + grouped(static_cast<long>(outside)) + " readings outside the range not drawn.";
+  page.text(kPlotLeft, row_y - 12, raw_note, "class=\"cap\"");
+
+  // Calibrated: S (m + h) about the origin, with the sphere of the fitted field.
+  if (calibrated) {
+    std::vector<Vector3<double>> cal, cal_held;
+    cal.reserve(raw.size());
+    for (const auto& p : raw) cal.push_back(soft * (p + hard));
+    for (const auto& p : held) cal_held.push_back(soft * (p + hard));
+    std::vector<double> extent;
+    for (const auto& p : cal) extent.push_back(p.cwiseAbs().maxCoeff());
+    double chalf = quantile(extent, 0.998);
+    chalf = 1.12 *
+            std::max(std::isfinite(chalf) ? std::min(chalf, 2 * mag.field_ut) : 0.0, mag.field_ut);
+    const std::string frame_name = mag.aligned ? "accelerometer frame" : "sensor frame";
+    for (int pi = 0; pi < 3; ++pi) {
+      const int i = axes[pi][0], j = axes[pi][1];
+      Square s;
+      s.x = kPlotLeft + pi * (size + gap);
+      s.y = row_y;
+      s.size = size;
+      s.half = chalf;
+      square_grid(page, s, std::string("m") + names[i] + " calibrated (\u00b5T)",
+                  std::string("m") + names[j] + " calibrated (\u00b5T)");
+      page.path(dot_path(s, cal, i, j), std::string("fill=\"none\" stroke=\"") + kCalCloudColour +
+                                            "\" stroke-width=\"2.4\" stroke-linecap=\"round\" "
+                                            "stroke-opacity=\"0.75\"");
+      const double r = mag.field_ut / s.half * 0.5 * s.size;
+      page.circle(s.px(0), s.py(0), r,
+                  std::string("fill=\"none\" stroke=\"") + kFitColour +
+                      "\" stroke-width=\"1.3\" stroke-dasharray=\"6 4\"");
+      page.path(ring_path(s, cal_held, i, j, held_r),
+                std::string("fill=\"none\" stroke=\"") + kHeldColour + "\" stroke-width=\"1.2\"");
+      page.rect(s.x, s.y, s.size, s.size, "class=\"fr\"");
+      page.text(s.x + 6, s.y + 15, std::string(names[i]) + "\u2013" + names[j] + ", " + frame_name,
+                "class=\"k\" fill-opacity=\"0.8\"");
+    }
+    row_y += size + 58;
+    page.text(kPlotLeft, row_y - 12,
+              "Calibrated: S (m + h), on a sphere of radius the field about the origin (dashed) "
+              "\u00b7 field " +
+                  value_text(mag.field_ut) + " \u00b5T \u00b7 fit error " +
+                  value_text(mag.fit_error_pct) + " % \u00b7 coverage " +
+                  value_text(100 * mag.coverage) + " % of the directions (needs " +
+                  value_text(100 * options.mag_min_coverage) + " %) \u00b7 quality " + mag.quality,
+              "class=\"cap\"");
+    std::string align = std::to_string(mag.samples) + " readings held (rings) of " +
+                        grouped(static_cast<long>(finite)) + " \u00b7 ";
+    align += mag.aligned ? "aligned to the accelerometer frame over " + std::to_string(mag.rests) +
+                               " rests: dip " + printf_string("%.2f", mag.dip_deg) + " \u00b1 " +
+                               value_text(mag.dip_sigma_deg) + "\u00b0"
+                         : "not aligned to the accelerometer frame" +
+                               (mag.alignment_status.empty() ? std::string()
+                                                             : " (" + mag.alignment_status + ")");
+    page.text(kPlotLeft, row_y + 3, align, "class=\"cap\"");
+    return row_y + 34;
+  }
+  page.text(kPlotLeft, row_y + 3,
+            elide(clean_utf8("Not calibrated: " +
+                             (mag.status.empty() ? std::string("no fit") : mag.status)),
+                  170),
+            "class=\"cap\"");
+  std::string why;
+  if (std::isfinite(mag.coverage))
+    why += "coverage " + value_text(100 * mag.coverage) + " % of the directions (needs " +
+           value_text(100 * options.mag_min_coverage) + " %) \u00b7 ";
+  if (std::isfinite(mag.field_ut) && mag.field_ut > 0)
+    why += "field " + value_text(mag.field_ut) + " \u00b5T \u00b7 ";
+  if (std::isfinite(mag.fit_error_pct))
+    why += "fit error " + value_text(mag.fit_error_pct) + " % \u00b7 ";
+  why += std::to_string(mag.samples) + " readings held (rings) of " +
+         grouped(static_cast<long>(finite));
+  page.text(kPlotLeft, row_y + 18, why, "class=\"cap\"");
+  return row_y + 49;
+}
+
+// --- Temperature -----------------------------------------------------------------------------
+
+// One sensor's bias against temperature: b(T) - b0 per axis (the fitted curve, a +-1 sigma band
+// from the slope's and the curvature's sigma) and, for the gyro, what each rest saw.
+void temperature_panel(Page& page, const Panel& p, const TemperatureResult& t,
+                       const TemperatureBiasResult& bias, bool gyro, const std::string& unit) {
+  const bool model = bias.ok && std::isfinite(t.reference_c);
+  const std::size_t n = t.rest_list.size();
+  // The reference subtracted: b0, or without a model the mean of the rests' observations.
+  double ref[3] = {0, 0, 0};
+  for (int a = 0; a < 3; ++a) {
+    if (model) {
+      ref[a] = bias.b0[a];
+      continue;
+    }
+    double sum = 0;
+    long count = 0;
+    for (const TemperatureRest& r : t.rest_list)
+      if (std::isfinite(r.gyro_mean[a])) {
+        sum += -r.gyro_mean[a];
+        ++count;
+      }
+    ref[a] = count > 0 ? sum / static_cast<double>(count) : 0;
+  }
+  auto curve = [&](int a, double temp) {
+    const double d = temp - t.reference_c;
+    return d * (bias.b1[a] + d * bias.b2[a]);
+  };
+  auto sigma = [&](int a, double temp) {
+    const double d = temp - t.reference_c;
+    return std::hypot(d * bias.b1_sigma[a], d * d * bias.b2_sigma[a]);
+  };
+  const Scale& sx = p.sx;
+  const double x_lo = sx.d0, x_hi = sx.d1;
+  const double c_lo = std::isfinite(t.min_c) ? t.min_c : x_lo;
+  const double c_hi = std::isfinite(t.max_c) ? t.max_c : x_hi;
+
+  // Values for the range.
+  std::vector<double> values;
+  if (gyro)
+    for (const TemperatureRest& r : t.rest_list)
+      for (int a = 0; a < 3; ++a)
+        if (std::isfinite(r.gyro_mean[a])) values.push_back(-r.gyro_mean[a] - ref[a]);
+  if (model)
+    for (int a = 0; a < 3; ++a)
+      for (double temp : {c_lo, c_hi}) {
+        values.push_back(curve(a, temp) + sigma(a, temp));
+        values.push_back(curve(a, temp) - sigma(a, temp));
+      }
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (double v : values)
+    if (std::isfinite(v)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  if (!(lo <= hi)) lo = hi = 0;
+  pad_range(lo, hi, 0.06);
+  Panel q = p;
+  q.sy = {lo, hi, p.y + p.h, p.y, false};
+
+  const double step = nice_step(x_hi - x_lo, 8);
+  for (double v : ticks(x_lo, x_hi, step)) {
+    const double x = q.sx(v);
+    page.line(x, q.y, x, q.y + q.h, "class=\"g\"");
+    page.line(x, q.y + q.h, x, q.y + q.h + 4, "class=\"tk\"");
+    page.text(x, q.y + q.h + 16, tick_text(v, step), "class=\"n\" text-anchor=\"middle\"");
+  }
+  page.text(q.x + q.w / 2, q.y + q.h + 32, "temperature (\u00b0C)",
+            "class=\"ax\" text-anchor=\"middle\"");
+  value_grid(page, q, (model ? "bias \u2212 b0 (" : "bias \u2212 mean (") + unit + ")");
+  if (lo < 0 && hi > 0) page.line(q.x, q.sy(0), q.x + q.w, q.sy(0), "stroke=\"#999\"");
+  if (model) {
+    const int steps = 60;
+    for (int a = 0; a < 3; ++a) {
+      PathBuilder line, band;
+      std::vector<std::array<double, 2>> lower;
+      for (int k = 0; k <= steps; ++k) {
+        const double temp = c_lo + (c_hi - c_lo) * k / steps;
+        const double v = curve(a, temp), s = sigma(a, temp);
+        line.point(q.sx(temp), q.sy(v));
+        band.point(q.sx(temp), q.sy(v + s));
+        lower.push_back({q.sx(temp), q.sy(v - s)});
+      }
+      for (auto it = lower.rbegin(); it != lower.rend(); ++it) band.point((*it)[0], (*it)[1]);
+      page.path(band.str() + "Z", std::string("fill=\"") + kAxisColour[a] +
+                                      "\" fill-opacity=\"0.13\" stroke=\"none\"");
+      page.path(line.str(),
+                std::string("fill=\"none\" stroke=\"") + kAxisColour[a] + "\" stroke-width=\"2\"");
+    }
+    const double x0 = q.sx(t.reference_c);
+    if (x0 >= q.x && x0 <= q.x + q.w) {
+      page.line(x0, q.y, x0, q.y + q.h, "stroke=\"#555\" stroke-dasharray=\"3 3\"");
+      page.text(x0 + 3, q.y + 12, "T0", "class=\"gl\"");
+    }
+  }
+  // The rests: the gyro's observed bias as dots, the accelerometer's temperatures as ticks (a rest
+  // does not observe the accelerometer's bias per axis, only |a|).
+  for (std::size_t i = 0; i < n; ++i) {
+    const TemperatureRest& r = t.rest_list[i];
+    if (!std::isfinite(r.temperature_c)) continue;
+    const double x = q.sx(r.temperature_c);
+    if (!std::isfinite(x) || x < q.x - 1 || x > q.x + q.w + 1) continue;
+    if (!gyro) {
+      page.line(x, q.y + q.h - 8, x, q.y + q.h, "stroke=\"#333\" stroke-width=\"1.2\"");
+      continue;
+    }
+    for (int a = 0; a < 3; ++a) {
+      const double v = -r.gyro_mean[a] - ref[a];
+      if (!std::isfinite(v) || v < lo || v > hi) continue;
+      const std::string attrs = std::string("fill=\"") + kAxisColour[a] +
+                                "\" fill-opacity=\"0.8\" stroke=\"#fff\" stroke-width=\"0.6\"";
+      if (n <= 100)
+        page.circle(x, q.sy(v), 3.2, attrs,
+                    printf_string("rest %zu: %.2f \u00b0C, %ld samples, %s bias \u2212 %s = %s",
+                                  i + 1, r.temperature_c, r.samples,
+                                  a == 0   ? "x"
+                                  : a == 1 ? "y"
+                                           : "z",
+                                  model ? "b0" : "mean", value_text(v).c_str()));
+      else
+        page.circle(x, q.sy(v), 2.2, attrs);
+    }
+  }
+  page.rect(q.x, q.y, q.w, q.h, "class=\"fr\"");
+}
+
+// "0.166, −0.109, 0.340": three values.
+std::string triple(const double v[3]) {
+  return value_text(v[0]) + ", " + value_text(v[1]) + ", " + value_text(v[2]);
+}
+
+double temperature_section(Page& page, double y, const Run& run, const Options& options) {
+  const TemperatureResult& t = run.temperature;
+  if (!t.present) return y;
+  section_title(page, y,
+                "Biases against temperature: b(T) \u2212 b0 = b1 (T \u2212 T0)" +
+                    std::string(t.order >= 2 ? " + b2 (T \u2212 T0)\u00b2" : "") +
+                    ", per axis, \u00b11\u03c3 band");
+  legend(page, y, {{"x", kAxisColour[0]}, {"y", kAxisColour[1]}, {"z", kAxisColour[2]}});
+  if (t.rest_list.empty() && !t.gyro.ok && !t.accel.ok) {
+    Panel p = make_panel(y + 10, 60, 0, 1, 0, 1);
+    caption_in(page, p,
+               "no temperature model: " + (t.status.empty() ? std::string("?") : t.status));
+    frame(page, p);
+    return p.y + p.h + 30;
+  }
+  // The temperature range: the rests' and the model's.
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (const TemperatureRest& r : t.rest_list)
+    if (std::isfinite(r.temperature_c)) {
+      lo = std::min(lo, r.temperature_c);
+      hi = std::max(hi, r.temperature_c);
+    }
+  for (double v : {t.min_c, t.max_c})
+    if (std::isfinite(v)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  if (!(lo <= hi)) lo = hi = 20;
+  if (hi - lo < 1) {
+    lo -= 0.5;
+    hi += 0.5;
+  }
+  pad_range(lo, hi, 0.04);
+
+  const double gap = 100, w = (kPlotWidth - gap) / 2, h = 220;
+  const std::string gyro_unit = gyro_unit_name(options.gyro_unit);
+  const std::string accel_unit = accel_unit_name(options.accel_unit);
+  struct Side {
+    const TemperatureBiasResult& bias;
+    bool gyro;
+    std::string name, unit;
+    double x;
+  };
+  const Side sides[2] = {{t.gyro, true, "gyroscope", gyro_unit, kPlotLeft},
+                         {t.accel, false, "accelerometer", accel_unit, kPlotLeft + w + gap}};
+  double bottom = y;
+  for (const Side& side : sides) {
+    Panel p;
+    p.x = side.x;
+    p.y = y + 30;
+    p.w = w;
+    p.h = h;
+    p.sx = {lo, hi, p.x, p.x + p.w, false};
+    p.sy = {0, 1, p.y + p.h, p.y, false};
+    page.text(p.x, p.y - 8,
+              side.name + (side.gyro ? ": each rest's bias (\u2212 mean rate), the fit"
+                                     : ": the fit; ticks: the rests' temperatures"),
+              "class=\"k\"");
+    double cy = p.y + p.h + 52;
+    if (!side.gyro && !side.bias.ok) {
+      page.rect(p.x, p.y, p.w, p.h, "class=\"fr\"");
+      caption_in(
+          page, p,
+          "no accelerometer model: " + (side.bias.status.empty() ? t.status : side.bias.status));
+    } else {
+      temperature_panel(page, p, t, side.bias, side.gyro, side.unit);
+    }
+    std::vector<std::string> lines;
+    if (side.bias.ok) {
+      lines.push_back("b1 (x, y, z) = " + triple(side.bias.b1) + " " + side.unit + "/\u00b0C");
+      lines.push_back("  \u03c3 = " + triple(side.bias.b1_sigma) + " " + side.unit + "/\u00b0C");
+      // The slope in physical units, through the calibrated scale.
+      const bool cal = side.gyro ? run.gyro_ok : run.accel_ok;
+      if (cal) {
+        double phys[3];
+        bool finite = true;
+        for (int a = 0; a < 3; ++a) {
+          const double s = side.gyro ? run.gyro_params[static_cast<std::size_t>(6 + a)]
+                                     : run.accel_params[static_cast<std::size_t>(3 + a)];
+          phys[a] = side.bias.b1[a] * s * (side.gyro ? kDeg : 1000 / gravity(options));
+          finite = finite && std::isfinite(phys[a]);
+        }
+        if (finite)
+          lines.push_back("  = " + triple(phys) + (side.gyro ? " deg/s/\u00b0C" : " mg/\u00b0C"));
+      }
+      if (t.order >= 2)
+        lines.push_back("b2 = " + triple(side.bias.b2) + " \u00b1 " + triple(side.bias.b2_sigma) +
+                        " " + side.unit + "/\u00b0C\u00b2");
+      lines.push_back("T0 = " + printf_string("%.2f", t.reference_c) + " \u00b0C, " +
+                      std::to_string(t.rests) + " rests over " + printf_string("%.1f", t.min_c) +
+                      " \u2026 " + printf_string("%.1f", t.max_c) + " \u00b0C");
+    } else if (side.gyro) {
+      lines.push_back("no gyroscope model: " +
+                      (side.bias.status.empty() ? t.status : side.bias.status));
+    }
+    for (const std::string& line : lines) {
+      page.text(p.x, cy, line, "class=\"cap\"");
+      cy += 15;
+    }
+    bottom = std::max(bottom, cy);
+  }
+  return bottom + 22;
+}
+
 constexpr const char* kStyle =
     "<style>"
     ".t{font-size:22px;font-weight:bold;fill:#111}"
@@ -1147,6 +1695,8 @@ std::string report_svg(const Run& run, const Options& options, const std::vector
   y = bar_section(page, y, moves);
 
   y = sphere_section(page, y, run);
+  y = mag_section(page, y, run, options, samples);
+  y = temperature_section(page, y, run, options);
 
   const std::string height = coord(std::ceil(y));
   std::string svg = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";

@@ -14,6 +14,7 @@ namespace imucal::cli {
 
 enum class AccelUnit { kCounts, kG, kMps2 };
 enum class GyroUnit { kCounts, kDps, kRads };
+enum class MagUnit { kCounts, kUt, kNt, kGauss };
 
 constexpr double kStandardGravity = 9.80665;
 constexpr double kPi = 3.14159265358979323846;
@@ -37,6 +38,17 @@ struct Options {
   double accel_min = kNaN, accel_max = kNaN, gyro_min = kNaN, gyro_max = kNaN;
   double nominal_rate_hz = 0;  // the configured sample rate (0: not checked)
   bool refine_gyro_bias = false;
+  // Magnetometer (used when the input has mx, my, mz): unit, nominal counts per uT (counts
+  // only), the Earth-field bounds in uT, the coverage needed, alignment to the accelerometer.
+  MagUnit mag_unit = MagUnit::kUt;
+  double mag_lsb_per_ut = kNaN;
+  double mag_field_min = 20, mag_field_max = 70;
+  double mag_min_coverage = 0.5;
+  bool mag_align = true;
+  // Temperature model of the biases (used when the input has temp): order 1 or 2, the span of
+  // rest temperatures needed for a slope.
+  int temp_order = 1;
+  double temp_min_span = 5;
   bool use_double = false;  // the double reference instead of float (device)
   bool quiet = false;       // no progress display
   std::string json_path, header_path, svg_path, truth_path, record_path;
@@ -50,6 +62,8 @@ struct Sample {
   double t;
   double acc[3];
   double gyro[3];
+  double temp = kNaN;                  // deg C (NaN: none)
+  double mag[3] = {kNaN, kNaN, kNaN};  // input units (NaN: none at this sample)
 };
 
 struct PoseResult {
@@ -79,6 +93,56 @@ struct StreamCount {
   const char* name;  // short, for the summary: "accel saturated"
   const char* key;   // for the JSON: "accel_saturated"
   long count = 0;
+};
+
+// The magnetometer's calibration, m_cal = S (m_raw + h) (mag_model.hpp), and what it saw.
+struct MagResult {
+  bool present = false;  // the input has magnetometer columns
+  std::string status;    // the fit's status (to_string), or why there was none
+  bool ok = false;       // usable
+  double soft_iron[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // S, uT per input unit
+  double hard_iron[3] = {0, 0, 0};                             // h, input units, added
+  double hard_iron_sigma[3] = {0, 0, 0};
+  double soft_iron_sigma[6] = {0, 0, 0, 0, 0, 0};  // S00 S11 S22 S01 S02 S12 (before alignment)
+  double field_ut = kNaN, fit_error_pct = kNaN, coverage = kNaN;
+  int samples = 0, iterations = 0;  // samples held by the collector and fitted
+  std::string quality = "none";
+  std::string alignment_status;  // to_string, or why not ("not asked")
+  bool aligned = false;
+  double dip_deg = kNaN, dip_sigma_deg = kNaN;
+  double rotation[3] = {0, 0, 0}, rotation_sigma[3] = {0, 0, 0};  // rad, mag to accel frame
+  int rests = 0;                                                  // static poses for the dip
+  std::vector<std::array<double, 3>> held;  // the collector's samples (input units)
+  long readings = 0;                        // finite magnetometer readings in the input
+  double unit_ut = kNaN;                    // the nominal uT per input unit the fit used
+};
+
+// One rest as the temperature fit saw it (Calibrator::last_rest()).
+struct TemperatureRest {
+  double temperature_c = kNaN;
+  double accel_mean[3] = {0, 0, 0}, gyro_mean[3] = {0, 0, 0};  // input units
+  long samples = 0;
+};
+
+// b(T) = b0 + b1 (T - T0) + b2 (T - T0)^2 for the added biases (temperature_model.hpp).
+struct TemperatureBiasResult {
+  std::string status;
+  bool ok = false;
+  double b0[3] = {0, 0, 0}, b1[3] = {0, 0, 0}, b2[3] = {0, 0, 0};  // input units, per degC^k
+  double b0_sigma[3] = {0, 0, 0}, b1_sigma[3] = {0, 0, 0}, b2_sigma[3] = {0, 0, 0};
+};
+struct TemperatureResult {
+  bool present = false;  // the input has a temperature column
+  std::string status;    // overall: why there is no model, or "ok"
+  int order = 1;
+  double reference_c = kNaN, min_c = kNaN, max_c = kNaN;
+  int rests = 0;
+  TemperatureBiasResult accel, gyro;
+  std::vector<TemperatureRest> rest_list;  // raw means (not compensated)
+  // Calibration passes over the readings with the model applied (0: none): the accelerometer
+  // and gyro calibration, the poses' means and the residuals are then those of the compensated
+  // readings (raw + b(T) - b0), so the base no longer absorbs the drift.
+  int passes = 0;
 };
 
 struct Run {
@@ -118,6 +182,8 @@ struct Run {
   bool usable = false;    // both sensors calibrated (quality fair or good)
   std::vector<PoseResult> pose_list;
   std::vector<MoveResult> move_list;
+  MagResult mag;
+  TemperatureResult temperature;
   // The device's calibration record (record.hpp), if asked for and usable; else why not.
   std::vector<std::uint8_t> record;
   std::string record_error;
@@ -128,10 +194,13 @@ extern const char* const kAccelNames[9];
 const char* accel_unit_name(AccelUnit u);
 const char* gyro_unit_name(GyroUnit u);
 const char* time_unit_name(TimeUnit u);
+const char* mag_unit_name(MagUnit u);
 extern const char* const kGyroNames[12];
 
 // The SVG report page: the signal over time with the rests shaded, |a| before and after, the
-// per-pose and per-move residuals, the pose directions on a sphere. `samples` may be decimated.
+// per-pose and per-move residuals, the pose directions on a sphere; with a magnetometer, its
+// raw and calibrated point clouds; with a temperature model, the biases against temperature.
+// `samples` may be decimated.
 std::string report_svg(const Run& run, const Options& options, const std::vector<Sample>& samples);
 
 }  // namespace imucal::cli
