@@ -173,6 +173,30 @@ void linear_ramp(const char* label) {
 }
 
 TEST(TemperatureFit, LinearRampDouble) { linear_ramp<double>("double"); }
+
+// A linear-only fit (TemperatureFit<float, 1>, what a device that needs no quadratic model
+// links): the same numbers as the general one at order 1, and order 2 refused.
+TEST(TemperatureFit, LinearOnlyFitIsTheSame) {
+  const auto truth = draw_truth(1, 101);
+  const RestList rests = draw_rests(truth, 30, 201);
+  const Calibration<float> base = cast_base<float>(sim::base_calibration(truth));
+  static TemperatureFit<float, 1> lin;
+  static TemperatureFit<float, 2> gen;
+  EXPECT_EQ(lin.reset(base, settings_of<float>(2)), Status::kInvalidArgument);
+  ASSERT_EQ(lin.reset(base, settings_of<float>(1)), Status::kOk);
+  ASSERT_EQ(gen.reset(base, settings_of<float>(1)), Status::kOk);
+  for (const auto& r : rests) {
+    ASSERT_EQ(lin.add_rest(cast_rest<float>(r)), Status::kOk);
+    ASSERT_EQ(gen.add_rest(cast_rest<float>(r)), Status::kOk);
+  }
+  TemperatureModel<float> a, b;
+  ASSERT_EQ(lin.solve(a), Status::kOk);
+  ASSERT_EQ(gen.solve(b), Status::kOk);
+  EXPECT_EQ(a.accel.b1, b.accel.b1);
+  EXPECT_EQ(a.gyro.b0, b.gyro.b0);
+  EXPECT_EQ(a.gyro.b1_sigma, b.gyro.b1_sigma);
+  EXPECT_LT(sizeof lin, sizeof gen);
+}
 TEST(TemperatureFit, LinearRampFloat) { linear_ramp<float>("float"); }
 
 // 2. Quadratic drift (order 2): b0, b1, b2 within 3 sigma.

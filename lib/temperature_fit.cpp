@@ -79,10 +79,11 @@ bool sse_increment(const NormalEquations<Scalar, N>& ne, const Eigen::Matrix<Sca
 
 }  // namespace
 
-template <typename Scalar>
+template <typename Scalar, int MaxOrder>
 template <int N>
-Status TemperatureFit<Scalar>::fold(Accumulator<N>& acc, const Eigen::Matrix<Scalar, N, 1>& j,
-                                    Scalar e, Scalar w) {
+Status TemperatureFit<Scalar, MaxOrder>::fold(Accumulator<N>& acc,
+                                              const Eigen::Matrix<Scalar, N, 1>& j, Scalar e,
+                                              Scalar w) {
   Scalar inc = Scalar(0);
   const bool incremental = acc.sse_valid && sse_increment(acc.ne, j, e, w, inc);
   const Status st = acc.ne.add(j, e, w);
@@ -112,15 +113,15 @@ Status TemperatureFit<Scalar>::fold(Accumulator<N>& acc, const Eigen::Matrix<Sca
   return Status::kOk;
 }
 
-template <typename Scalar>
-Status TemperatureFit<Scalar>::reset(const Calibration<Scalar>& base,
-                                     const TemperatureSettings<Scalar>& settings) {
+template <typename Scalar, int MaxOrder>
+Status TemperatureFit<Scalar, MaxOrder>::reset(const Calibration<Scalar>& base,
+                                               const TemperatureSettings<Scalar>& settings) {
   ready_ = false;
   rests_ = 0;
   min_c_ = max_c_ = Scalar(0);
   sums1_ = Sums<1>{};
-  sums2_ = Sums<2>{};
-  if (settings.order < 1 || settings.order > 2) return Status::kInvalidArgument;
+  if constexpr (MaxOrder >= 2) sums2_ = Sums<2>{};
+  if (settings.order < 1 || settings.order > MaxOrder) return Status::kInvalidArgument;
   if (!std::isfinite(settings.min_span_c) || settings.min_span_c < Scalar(0))
     return Status::kInvalidArgument;
   if (!std::isfinite(settings.gravity) || !(settings.gravity > Scalar(0)))
@@ -154,10 +155,11 @@ Status TemperatureFit<Scalar>::reset(const Calibration<Scalar>& base,
   return Status::kOk;
 }
 
-template <typename Scalar>
+template <typename Scalar, int MaxOrder>
 template <int Order>
-Status TemperatureFit<Scalar>::add_rows(Sums<Order>& sums, const Vector3<Scalar>& c, Scalar s,
-                                        const Vector3<Scalar>& gyro_e, Scalar w) {
+Status TemperatureFit<Scalar, MaxOrder>::add_rows(Sums<Order>& sums, const Vector3<Scalar>& c,
+                                                  Scalar s, const Vector3<Scalar>& gyro_e,
+                                                  Scalar w) {
   constexpr int kPhi = 3 * (Order + 1);
   using AccelRow = Eigen::Matrix<Scalar, accel_unknowns(Order), 1>;
   const auto p = powers<Scalar, Order>(s);
@@ -188,8 +190,8 @@ Status TemperatureFit<Scalar>::add_rows(Sums<Order>& sums, const Vector3<Scalar>
   return Status::kOk;
 }
 
-template <typename Scalar>
-Status TemperatureFit<Scalar>::add_rest(const RestSummary<Scalar>& rest) {
+template <typename Scalar, int MaxOrder>
+Status TemperatureFit<Scalar, MaxOrder>::add_rest(const RestSummary<Scalar>& rest) {
   if (!ready_) return Status::kNotStarted;
   if (!rest.has_temperature) return Status::kInvalidArgument;
   if (!std::isfinite(rest.temperature_c) || !all_finite(rest.accel_mean) ||
@@ -203,8 +205,11 @@ Status TemperatureFit<Scalar>::add_rest(const RestSummary<Scalar>& rest) {
   const Vector3<Scalar> gyro_e = -rest.gyro_mean - gyro_bias_;
   if (!std::isfinite(s) || !all_finite(c) || !all_finite(gyro_e)) return Status::kNonFiniteInput;
   const Scalar w = static_cast<Scalar>(rest.samples);
-  const Status st =
-      order_ == 1 ? add_rows<1>(sums1_, c, s, gyro_e, w) : add_rows<2>(sums2_, c, s, gyro_e, w);
+  Status st;
+  if constexpr (MaxOrder >= 2)
+    st = order_ == 1 ? add_rows<1>(sums1_, c, s, gyro_e, w) : add_rows<2>(sums2_, c, s, gyro_e, w);
+  else
+    st = add_rows<1>(sums1_, c, s, gyro_e, w);
   if (st != Status::kOk) return st;
   if (rests_ == 0) {
     min_c_ = max_c_ = rest.temperature_c;
@@ -216,10 +221,10 @@ Status TemperatureFit<Scalar>::add_rest(const RestSummary<Scalar>& rest) {
   return Status::kOk;
 }
 
-template <typename Scalar>
+template <typename Scalar, int MaxOrder>
 template <int Order>
-void TemperatureFit<Scalar>::solve_accel(const Sums<Order>& sums,
-                                         TemperatureBias<Scalar>& out) const {
+void TemperatureFit<Scalar, MaxOrder>::solve_accel(const Sums<Order>& sums,
+                                                   TemperatureBias<Scalar>& out) const {
   constexpr int kN = accel_unknowns(Order);
   constexpr int kPhi = 3 * (Order + 1);
   using Ne = NormalEquations<Scalar, kN>;
@@ -309,10 +314,10 @@ void TemperatureFit<Scalar>::solve_accel(const Sums<Order>& sums,
   out = r;
 }
 
-template <typename Scalar>
+template <typename Scalar, int MaxOrder>
 template <int Order>
-void TemperatureFit<Scalar>::solve_gyro(const Sums<Order>& sums,
-                                        TemperatureBias<Scalar>& out) const {
+void TemperatureFit<Scalar, MaxOrder>::solve_gyro(const Sums<Order>& sums,
+                                                  TemperatureBias<Scalar>& out) const {
   constexpr int kN = Order + 1;
   using Ne = NormalEquations<Scalar, kN>;
   out = TemperatureBias<Scalar>{};
@@ -359,8 +364,8 @@ void TemperatureFit<Scalar>::solve_gyro(const Sums<Order>& sums,
   out = r;
 }
 
-template <typename Scalar>
-Status TemperatureFit<Scalar>::solve(TemperatureModel<Scalar>& out) const {
+template <typename Scalar, int MaxOrder>
+Status TemperatureFit<Scalar, MaxOrder>::solve(TemperatureModel<Scalar>& out) const {
   out = TemperatureModel<Scalar>{};
   out.order = order_;
   out.reference_c = reference_c_;
@@ -371,19 +376,24 @@ Status TemperatureFit<Scalar>::solve(TemperatureModel<Scalar>& out) const {
     out.accel.status = out.gyro.status = Status::kNotStarted;
     return Status::kNotStarted;
   }
+  if constexpr (MaxOrder >= 2) {
+    if (order_ == 2) {
+      solve_accel<2>(sums2_, out.accel);
+      solve_gyro<2>(sums2_, out.gyro);
+    }
+  }
   if (order_ == 1) {
     solve_accel<1>(sums1_, out.accel);
     solve_gyro<1>(sums1_, out.gyro);
-  } else {
-    solve_accel<2>(sums2_, out.accel);
-    solve_gyro<2>(sums2_, out.gyro);
   }
   if (!succeeded(out.accel.status)) return out.accel.status;
   if (!succeeded(out.gyro.status)) return out.gyro.status;
   return Status::kOk;
 }
 
-template class TemperatureFit<float>;
-template class TemperatureFit<double>;
+template class TemperatureFit<float, 1>;
+template class TemperatureFit<float, 2>;
+template class TemperatureFit<double, 1>;
+template class TemperatureFit<double, 2>;
 
 }  // namespace imucal

@@ -22,10 +22,10 @@ volatile float g_input[3 * 12] = {9.8f, 0.1f,  0.2f, -9.7f, 0.2f, 0.1f,  0.1f,  
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 // A global, not a function-local static: that would need a thread-safe guard (__cxa_guard_*).
 imucal::Calibrator<float> calibrator;
-imucal::SimNorFlash<2048, 1024, 64> flash;      // the firmware's flash driver (2 KB of bss here)
-imucal::MagCalibrator<float> mag;               // the magnetometer collector
-imucal::TemperatureFit<float> temperature_fit;  // bias against temperature
-imucal::RestMonitor<float> rest_monitor;        // rests in the field
+imucal::SimNorFlash<2048, 1024, 64> flash;         // the firmware's flash driver (2 KB of bss here)
+imucal::MagCalibrator<float> mag;                  // the magnetometer collector
+imucal::TemperatureFit<float, 1> temperature_fit;  // bias against temperature (linear)
+imucal::RestMonitor<float> rest_monitor;           // rests in the field
 #endif
 
 }  // namespace

@@ -47,6 +47,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "imucal/calibrator.hpp"
 #include "imucal/normal_equations.hpp"
@@ -72,9 +73,12 @@ struct TemperatureSettings {
 // The temperature unit of the internal polynomial: s = (T - T0) / kTemperatureScaleC.
 constexpr double kTemperatureScaleC = 10.0;
 
-template <typename Scalar>
+// MaxOrder: the highest order the fit can be reset to. A device that only wants a linear model
+// takes TemperatureFit<float, 1>: half the code and 0.7 KB less RAM (no quadratic sums).
+template <typename Scalar, int MaxOrder = 2>
 class TemperatureFit {
  public:
+  static_assert(MaxOrder == 1 || MaxOrder == 2, "linear or quadratic");
   // Unknowns per order: accelerometer 3 (order + 1) polynomial coefficients and 2 order + 1
   // radius terms; gyroscope order + 1 per axis.
   static constexpr int accel_unknowns(int order) { return 3 * (order + 1) + 2 * order + 1; }
@@ -136,8 +140,9 @@ class TemperatureFit {
   template <int Order>
   void solve_gyro(const Sums<Order>& sums, TemperatureBias<Scalar>& out) const;
 
+  struct NoSums {};
   Sums<1> sums1_{};
-  Sums<2> sums2_{};
+  std::conditional_t<(MaxOrder >= 2), Sums<2>, NoSums> sums2_{};
   Matrix3<Scalar> a_ = Matrix3<Scalar>::Identity();       // base T K
   Matrix3<Scalar> a_inv_ = Matrix3<Scalar>::Identity();   // its inverse
   Vector3<Scalar> accel_bias_ = Vector3<Scalar>::Zero();  // base accelerometer bias (added)
@@ -151,7 +156,9 @@ class TemperatureFit {
   bool ready_ = false;
 };
 
-extern template class TemperatureFit<float>;
-extern template class TemperatureFit<double>;
+extern template class TemperatureFit<float, 1>;
+extern template class TemperatureFit<float, 2>;
+extern template class TemperatureFit<double, 1>;
+extern template class TemperatureFit<double, 2>;
 
 }  // namespace imucal
