@@ -652,6 +652,49 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
         run.accel_ok);
   table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
         run.gyro_ok);
+  // The magnetometer and the temperature model, when the file has their truth (simulate).
+  auto vec3 = [](const Json& j, double* v) {
+    if (!j.is_array() || j.size() != 3) return false;
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!j[i].is_number()) return false;
+      v[i] = j[i].get<double>();
+    }
+    return true;
+  };
+  auto z3 = [&](const char* what, const double* est, const double* t, const double* sd) {
+    std::fprintf(out, "  %s:", what);
+    for (int i = 0; i < 3; ++i) std::fprintf(out, " %+.2f", (est[i] - t[i]) / sd[i]);
+    std::fprintf(out, "\n");
+  };
+  double t3[3];
+  if (truth.contains("magnetometer") && truth["magnetometer"].is_object()) {
+    const Json& m = truth["magnetometer"];
+    if (!run.mag.ok) {
+      std::fprintf(out, "  magnetometer: not calibrated\n");
+    } else {
+      if (m.contains("hard_iron") && vec3(m["hard_iron"], t3))
+        z3("magnetometer hard iron h", run.mag.hard_iron, t3, run.mag.hard_iron_sigma);
+      if (m.contains("field_ut") && m["field_ut"].is_number())
+        std::fprintf(out, "  magnetometer field: %.3f uT (truth %.3f)\n", run.mag.field_ut,
+                     m["field_ut"].get<double>());
+      if (run.mag.aligned && m.contains("dip_deg") && m["dip_deg"].is_number())
+        std::fprintf(out, "  magnetometer dip: %+.2f\n",
+                     (run.mag.dip_deg - m["dip_deg"].get<double>()) / run.mag.dip_sigma_deg);
+    }
+  }
+  if (truth.contains("temperature") && truth["temperature"].is_object()) {
+    const Json& t = truth["temperature"];
+    const std::pair<const char*, const TemperatureBiasResult*> parts[] = {
+        {"accelerometer", &run.temperature.accel}, {"gyroscope", &run.temperature.gyro}};
+    for (const auto& [name, r] : parts) {
+      const std::string label = std::string("temperature slope b1, ") + name;
+      if (!r->ok) {
+        std::fprintf(out, "  %s: no model\n", label.c_str());
+      } else if (t.contains(name) && t[name].contains("b1") && vec3(t[name]["b1"], t3)) {
+        z3(label.c_str(), r->b1, t3, r->b1_sigma);
+      }
+    }
+  }
   return true;
 }
 
