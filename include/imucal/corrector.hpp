@@ -135,12 +135,12 @@ class Corrector {
   // The hot path: no branches, no checks.
   void apply(const Vector3<Scalar>& acc_raw, const Vector3<Scalar>& gyro_raw, Vector3<Scalar>& acc,
              Vector3<Scalar>& gyro) const {
-    acc.noalias() = acc_m_ * acc_raw + acc_c_;
-    gyro.noalias() = gyro_m_ * gyro_raw + gyro_c_;
+    affine(acc_m_, acc_raw, acc_c_, acc);
+    affine(gyro_m_, gyro_raw, gyro_c_, gyro);
   }
-  Vector3<Scalar> accel(const Vector3<Scalar>& raw) const { return acc_m_ * raw + acc_c_; }
-  Vector3<Scalar> gyro(const Vector3<Scalar>& raw) const { return gyro_m_ * raw + gyro_c_; }
-  Vector3<Scalar> mag(const Vector3<Scalar>& raw) const { return mag_m_ * raw + mag_c_; }
+  Vector3<Scalar> accel(const Vector3<Scalar>& raw) const { return affine(acc_m_, raw, acc_c_); }
+  Vector3<Scalar> gyro(const Vector3<Scalar>& raw) const { return affine(gyro_m_, raw, gyro_c_); }
+  Vector3<Scalar> mag(const Vector3<Scalar>& raw) const { return affine(mag_m_, raw, mag_c_); }
 
   // As apply(), but a non-finite raw reading is refused (kNonFiniteInput, outputs untouched).
   Status apply_checked(const Vector3<Scalar>& acc_raw, const Vector3<Scalar>& gyro_raw,
@@ -171,6 +171,25 @@ class Corrector {
     m_out = m;
     c_out = c;
     return true;
+  }
+
+  // out = m x + c, written out: Eigen's 3x3 product becomes an out-of-line call once a program
+  // uses it in a few places (GCC -O2 on the M4F: 96 instead of 62 instructions per apply()).
+  static void affine(const Matrix3<Scalar>& m, const Vector3<Scalar>& x, const Vector3<Scalar>& c,
+                     Vector3<Scalar>& out) {
+    const Scalar x0 = x(0), x1 = x(1), x2 = x(2);
+    const Scalar o0 = m(0, 0) * x0 + m(0, 1) * x1 + m(0, 2) * x2 + c(0);
+    const Scalar o1 = m(1, 0) * x0 + m(1, 1) * x1 + m(1, 2) * x2 + c(1);
+    const Scalar o2 = m(2, 0) * x0 + m(2, 1) * x1 + m(2, 2) * x2 + c(2);
+    out(0) = o0;
+    out(1) = o1;
+    out(2) = o2;
+  }
+  static Vector3<Scalar> affine(const Matrix3<Scalar>& m, const Vector3<Scalar>& x,
+                                const Vector3<Scalar>& c) {
+    Vector3<Scalar> out;
+    affine(m, x, c, out);
+    return out;
   }
 
   template <typename From>
