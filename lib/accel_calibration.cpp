@@ -6,6 +6,8 @@
 #include <Eigen/LU>
 #include <cmath>
 
+#include "quadric.hpp"
+
 namespace imucal {
 namespace {
 
@@ -97,10 +99,7 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
     const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
-    AccelVector<Scalar> phi;
-    phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1), Scalar(2) * x(0) * x(2),
-        Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
-    const Status s = ne.add(phi, Scalar(-1), Scalar(poses[i].samples) / mean_n);
+    const Status s = ne.add(detail::quadric_row(x), Scalar(-1), Scalar(poses[i].samples) / mean_n);
     if (s != Status::kOk) return s;
   }
   AccelVector<Scalar> theta;
@@ -108,10 +107,8 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   if (s != Status::kOk) return s;
 
   Matrix3<Scalar> q;
-  q << theta(0), theta(3), theta(4),  //
-      theta(3), theta(1), theta(5),   //
-      theta(4), theta(5), theta(2);
-  const Vector3<Scalar> u(theta(6), theta(7), theta(8));
+  Vector3<Scalar> u;
+  detail::quadric_from(theta, q, u);
   Eigen::LLT<Matrix3<Scalar>> llt_q(q);
   if (llt_q.info() != Eigen::Success) return Status::kNotAnEllipsoid;
   const Vector3<Scalar> c = Scalar(-0.5) * llt_q.solve(u);  // ellipsoid centre

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "quadric.hpp"
+
 namespace imucal {
 namespace {
 
@@ -76,20 +78,15 @@ Status fit_ellipsoid_sym(const MagProblem<Scalar>& prob, MagVector<Scalar>& p0) 
   NormalEquations<Scalar, kMagParams> ne;
   for (int i = 0; i < prob.n; ++i) {
     const Vector3<Scalar> x = (prob.samples[i] - prob.centre) * prob.inv_scale;
-    MagVector<Scalar> phi;
-    phi << x(0) * x(0), x(1) * x(1), x(2) * x(2), Scalar(2) * x(0) * x(1), Scalar(2) * x(0) * x(2),
-        Scalar(2) * x(1) * x(2), x(0), x(1), x(2);
-    const Status s = ne.add(phi, Scalar(-1));
+    const Status s = ne.add(detail::quadric_row(x), Scalar(-1));
     if (s != Status::kOk) return s;
   }
   MagVector<Scalar> theta;
   const Status s = ne.solve_damped(Scalar(0), theta);
   if (s != Status::kOk) return s;
   Matrix3<Scalar> q;
-  q << theta(0), theta(3), theta(4),  //
-      theta(3), theta(1), theta(5),   //
-      theta(4), theta(5), theta(2);
-  const Vector3<Scalar> u(theta(6), theta(7), theta(8));
+  Vector3<Scalar> u;
+  detail::quadric_from(theta, q, u);
   Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
   eig.compute(q);
   if (eig.info() != Eigen::Success) return Status::kNotAnEllipsoid;

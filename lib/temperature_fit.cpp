@@ -77,6 +77,20 @@ bool sse_increment(const NormalEquations<Scalar, N>& ne, const Eigen::Matrix<Sca
   return true;
 }
 
+// A part's result: the base bias added back to b0, usable only if every number is finite.
+template <typename Scalar>
+void finish_bias(TemperatureBias<Scalar>& r, const Vector3<Scalar>& base_bias,
+                 TemperatureBias<Scalar>& out) {
+  r.b0 += base_bias;
+  if (!all_finite(r.b0) || !all_finite(r.b1) || !all_finite(r.b2) || !all_finite(r.b0_sigma) ||
+      !all_finite(r.b1_sigma) || !all_finite(r.b2_sigma)) {
+    out.status = Status::kIllConditioned;
+    return;
+  }
+  r.status = Status::kOk;
+  out = r;
+}
+
 }  // namespace
 
 template <typename Scalar, int MaxOrder>
@@ -304,14 +318,7 @@ void TemperatureFit<Scalar, MaxOrder>::solve_accel(const Sums<Order>& sums,
       (*sigma[k])(i) = std::sqrt(v > Scalar(0) ? v : Scalar(0)) * unit;
     }
   }
-  r.b0 += accel_bias_;
-  if (!all_finite(r.b0) || !all_finite(r.b1) || !all_finite(r.b2) || !all_finite(r.b0_sigma) ||
-      !all_finite(r.b1_sigma) || !all_finite(r.b2_sigma)) {
-    out.status = Status::kIllConditioned;
-    return;
-  }
-  r.status = Status::kOk;
-  out = r;
+  finish_bias(r, accel_bias_, out);
 }
 
 template <typename Scalar, int MaxOrder>
@@ -354,14 +361,7 @@ void TemperatureFit<Scalar, MaxOrder>::solve_gyro(const Sums<Order>& sums,
       (*sigma[k])(i) = sd(k) * sd_ratio * unit;
     }
   }
-  r.b0 += gyro_bias_;
-  if (!all_finite(r.b0) || !all_finite(r.b1) || !all_finite(r.b2) || !all_finite(r.b0_sigma) ||
-      !all_finite(r.b1_sigma) || !all_finite(r.b2_sigma)) {
-    out.status = Status::kIllConditioned;
-    return;
-  }
-  r.status = Status::kOk;
-  out = r;
+  finish_bias(r, gyro_bias_, out);
 }
 
 template <typename Scalar, int MaxOrder>
