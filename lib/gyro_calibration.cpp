@@ -27,7 +27,7 @@ Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<
   b0_ = b0;
   evaluations_ = 0;
   cursor_ = typename Problem::Cursor{};
-  if (!all_finite(b0)) return status_ = Status::kNonFiniteInput;
+  if (!all_finite(b0) || !all_finite(data.bias_shift)) return status_ = Status::kNonFiniteInput;
   if (data.move_count < 0 || data.pose_count < 0 || settings_.segments_per_step < 1 ||
       !(settings_.nominal_scale >= Scalar(0)) || !(settings_.search_min > Scalar(0)) ||
       !(settings_.search_max > settings_.search_min))
@@ -156,7 +156,7 @@ Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
       return out.status = Status::kUnobservable;
   out.params.template head<kGyroMatrixParams>() = p.template head<kGyroMatrixParams>();
   out.sigma.template head<N>() = sd;
-  Vector3<Scalar> bias = b0_;
+  Vector3<Scalar> bias = b0_ + problem_.data.bias_shift;
   if constexpr (N == kGyroParams) bias += p.template tail<3>();
   out.params.template tail<3>() = bias;
   const Scalar moves = static_cast<Scalar>(problem_.data.move_count);

@@ -13,7 +13,8 @@
 // move its true two degrees of freedom, which the covariance needs.
 //
 // The segment statistics are of u = w_raw + b0, the raw rate corrected by the initial-rest bias
-// b0 (both in sensor units, bias ADDED as in the seed). The refined bias is b0 + db.
+// b0 (both in sensor units, bias ADDED as in the seed). The bias is b0 + bias_shift (GyroData),
+// plus db when refined.
 #pragma once
 
 #include <Eigen/Core>
@@ -45,6 +46,8 @@ struct GyroData {
   int move_count = 0;
   const Vector3<Scalar>* up = nullptr;  // unit gravity direction of each pose (calibrated)
   int pose_count = 0;
+  // Added to b0 before anything is fitted: the bias is b0 + bias_shift (+ the refined db).
+  Vector3<Scalar> bias_shift = Vector3<Scalar>::Zero();
 };
 
 // The residual problem over all moves, for N = 9 (bias fixed at b0) or N = 12 (bias refined).
@@ -99,8 +102,8 @@ class GyroProblem {
     if (!all_finite(p)) return Status::kNonFiniteInput;
     const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
     const Matrix3<Scalar> cof = GyroSegment<Scalar>::cofactor(m);
-    Vector3<Scalar> db = Vector3<Scalar>::Zero();
-    if constexpr (N == kGyroParams) db = p.template tail<3>();
+    Vector3<Scalar> db = data.bias_shift;
+    if constexpr (N == kGyroParams) db += p.template tail<3>();
     int budget = max_segments;
     while (c.move < data.move_count) {
       const GyroMove& mv = data.moves[c.move];
