@@ -43,12 +43,19 @@ void full_motion(bool refine_bias, std::uint64_t seed) {
   EXPECT_EQ(p.faces_covered, 6);
   EXPECT_EQ(p.axes_turned, 0x7);
   EXPECT_EQ(p.phase, Phase::kDone);
-  // Each pose lies inside a true rest (the detector trims, it never reaches into motion).
+  // Each pose lies inside its true rest (the detector trims, it never reaches into motion), but
+  // for a move's last or first sample whose true rate is below the gyro's own noise.
+  const double noise_rate = sc.gyro.noise * sc.gyro.nominal_scale;
   for (int k = 0; k < p.poses; ++k) {
     const double begin = cal.pose_begin_us(k) * 1e-6, end = cal.pose_end_us(k) * 1e-6;
     const auto& r = rec.rests[static_cast<std::size_t>(k)];
-    EXPECT_GE(begin, rec.samples[r.begin].t - 1e-6) << k;
-    EXPECT_LE(end, rec.samples[r.end - 1].t + 1e-6) << k;
+    for (std::size_t i = r.begin > 0 ? r.begin - 1 : 0; i <= r.end && i < rec.samples.size(); ++i)
+      if (!rec.samples[i].still && rec.samples[i].t >= begin - 1e-6 &&
+          rec.samples[i].t <= end + 1e-6) {
+        EXPECT_LE(rec.samples[i].rate.norm(), noise_rate) << k;
+      }
+    EXPECT_GE(begin, rec.samples[r.begin].t - 0.05) << k;
+    EXPECT_LE(end, rec.samples[r.end - 1].t + 0.05) << k;
   }
   const Calibration<Scalar>& c = cal.calibration();
   ASSERT_TRUE(succeeded(c.accel.status)) << to_string(c.accel.status);
@@ -70,26 +77,46 @@ TEST(Calibrator, FullMotionWithin3SigmaFloat) {
   for (std::uint64_t seed : {1u, 2u, 3u}) full_motion<float>(false, seed);
 }
 // No gyro scale given, raw counts: segments start as if for rad/s (one per sample, 4770 times
-// too fine), the store coarsens until they fit, and the scale is found by the 1-D search.
+// too fine), the store coarsens until they fit, and the scale is found by the 1-D search. Four
+// recordings: every parameter within 4 sigma, and the RMS of error/sigma over all 84 within
+// [0.7, 1.3] (a single recording's 21 fall beyond 3 sigma twice in a while by chance alone).
 TEST(Calibrator, FullMotionWithoutANominalGyroScale) {
-  Scenario sc;
-  sc.plan.initial_rest_s = 1.5 * kInitialRest;
-  sc.plan.poses = kPoses;
-  sc.plan.record_attitude = false;
-  sim::Random rng(7);
-  const sim::Recording rec = sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng);
-  CalibratorSettings<float> settings = settings_for<float>(sc, false);
-  settings.gyro.nominal_scale = 0.0f;
-  Calibrator<float> cal(settings);
-  EXPECT_EQ(count(stream(cal, rec.samples), Status::kOk), static_cast<int>(rec.samples.size()));
-  ASSERT_TRUE(succeeded(cal.solve_all())) << to_string(cal.calibration().gyro.status);
-  const Progress p = cal.progress();
-  EXPECT_GT(p.coarsenings, 3);
-  EXPECT_EQ(p.moves, p.poses - 1);
-  double worst = 0.0;
-  expect_within_3_sigma(cal.calibration(), rec, &worst);
-  std::printf("no nominal scale: %d segments after %d coarsenings, worst %.2f sigma\n", p.segments,
-              p.coarsenings, worst);
+  double sum_z2 = 0.0;
+  int values = 0;
+  for (std::uint64_t seed : {7u, 8u, 9u, 10u}) {
+    Scenario sc;
+    sc.plan.initial_rest_s = 1.5 * kInitialRest;
+    sc.plan.poses = kPoses;
+    sc.plan.record_attitude = false;
+    sim::Random rng(seed);
+    const sim::Recording rec = sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng);
+    CalibratorSettings<float> settings = settings_for<float>(sc, false);
+    settings.gyro.nominal_scale = 0.0f;
+    static Calibrator<float> cal;
+    cal.reset(settings);
+    EXPECT_EQ(count(stream(cal, rec.samples), Status::kOk), static_cast<int>(rec.samples.size()));
+    ASSERT_TRUE(succeeded(cal.solve_all())) << to_string(cal.calibration().gyro.status);
+    const Progress p = cal.progress();
+    EXPECT_GT(p.coarsenings, 3);
+    EXPECT_EQ(p.moves, p.poses - 1);
+    const Calibration<float>& c = cal.calibration();
+    auto add = [&](double estimate, double truth, double sigma) {
+      const double z = (estimate - truth) / sigma;
+      EXPECT_LT(std::abs(z), 4.0) << "seed " << seed;
+      sum_z2 += z * z;
+      ++values;
+    };
+    for (int k = 0; k < kAccelParams; ++k)
+      add(c.accel.params(k), rec.acc.params(k), c.accel.sigma(k));
+    for (int k = 0; k < kGyroParams; ++k)
+      add(c.gyro.params(k), rec.gyro.params(k), c.gyro.sigma(k));
+    std::printf("no nominal scale, seed %llu: %d segments after %d coarsenings\n",
+                static_cast<unsigned long long>(seed), p.segments, p.coarsenings);
+  }
+  const double rms = std::sqrt(sum_z2 / values);
+  std::printf("RMS error/sigma over %d values: %.2f\n", values, rms);
+  EXPECT_GT(rms, 0.7);
+  EXPECT_LT(rms, 1.3);
 }
 
 TEST(Calibrator, FullMotionRefinedBiasFloat) {
@@ -153,8 +180,9 @@ TEST(CalibratorStream, EveryPoseIsSummarisedAsARest) {
   }
   EXPECT_EQ(checked, kPoses);  // the last rest becomes a pose only when the stream ends
   // The initial rest's noise, for setting a RestMonitor's thresholds: the simulator's white
-  // noise, within the scatter of a variance over the rest's ~2000 samples (5 sigma).
-  const double n0 = kInitialRest * r.sc.plan.rate_hz;
+  // noise, within the scatter of a variance over the initial-rest window's samples (5 sigma).
+  const double n0 =
+      static_cast<double>(CalibratorSettings<float>{}.initial_rest_seconds) * r.sc.plan.rate_hz;
   for (int a = 0; a < 3; ++a) {
     const double v = r.sc.gyro.noise * r.sc.gyro.noise;
     EXPECT_NEAR(cal.gyro_noise_variance()(a), v, 5.0 * v * std::sqrt(2.0 / n0)) << a;
@@ -381,23 +409,31 @@ TEST(CalibratorStream, BadSamplesAreRefusedWithoutLosingAnything) {
   EXPECT_EQ(cal.calibration().gyro.params, clean.calibration().gyro.params);
 }
 
-TEST(CalibratorStream, MotionDuringTheInitialRestRestartsIt) {
+// The initial rest is the first still period of initial_rest_seconds: motion before it (a
+// recording that starts turning) is reported and skipped, and the first rest serves instead.
+TEST(CalibratorStream, MotionBeforeAnyRestIsSkippedUntilTheFirstStillPeriod) {
   SimRun r;
-  r.sc.plan.initial_rest_s = 4.0;  // the user starts turning after 4 s of the 10 required
+  r.sc.plan.initial_rest_s = 0.5;  // shorter than the window: the recording starts moving
   r.sc.plan.poses = 4;
+  r.sc.plan.rest_min_s = 4.0;
   r.sc.plan.record_attitude = false;
   sim::Random rng(29);
   r.rec = sim::simulate_motion(r.sc.plan, r.sc.acc, r.sc.gyro, rng);
   Calibrator<float> cal(settings_for<float>(r.sc, false));
   int disturbed = 0;
-  for (std::size_t i = 0; i < at_time(r.rec, 12.0); ++i)
+  const std::size_t first_rest_end = r.rec.rests[1].end;
+  for (std::size_t i = 0; i < first_rest_end; ++i)
     disturbed += cal.add(to_sample<float>(r.rec.samples[i])) == Status::kInitialRestDisturbed;
-  EXPECT_EQ(disturbed, 1);
+  EXPECT_GE(disturbed, 1);  // the first move, seen by the sliding window
   const Progress p = cal.progress();
-  EXPECT_EQ(p.phase, Phase::kInitialRest);
-  EXPECT_EQ(p.hint, Hint::kHoldStill);
-  EXPECT_EQ(p.last_event, Status::kInitialRestDisturbed);
-  EXPECT_LT(p.initial_rest_done, 0.5f);
+  EXPECT_EQ(p.phase, Phase::kCollecting);
+  // The initial rest was found inside the first true rest, not across the move before it.
+  for (std::size_t i = first_rest_end; i < r.rec.samples.size(); ++i)
+    cal.add(to_sample<float>(r.rec.samples[i]));
+  cal.end_stream();  // four poses: too few to solve, all of them listed
+  ASSERT_EQ(cal.progress().poses, 4);
+  EXPECT_GE(cal.pose_begin_us(0) * 1e-6, r.rec.samples[r.rec.rests[1].begin].t - 1e-6);
+  EXPECT_LE(cal.pose_end_us(0) * 1e-6, r.rec.samples[r.rec.rests[1].end - 1].t + 1e-6);
 }
 
 // Progress while collecting: the faces fill in, the hint points at a missing one, and the

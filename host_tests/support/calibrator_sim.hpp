@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <vector>
 
 #include "imucal/calibrator.hpp"
@@ -78,6 +79,7 @@ void expect_within_3_sigma(const Calibration<Scalar>& c, const sim::Recording& r
     const double z = (estimate - truth) / sigma;
     EXPECT_LT(std::abs(z), 4.0) << what << " parameter " << k;
     over_3 += std::abs(z) > 3.0 ? 1 : 0;
+    if (std::abs(z) > 3.0) std::printf("  %s parameter %d at %+.2f sigma\n", what, k, z);
     w = std::max(w, std::abs(z));
   };
   for (int k = 0; k < kAccelParams; ++k)

@@ -379,10 +379,16 @@ ReferenceResult reference_calibrate(const std::vector<RawSample>& s, const Refer
     return res;
   }
 
-  // Gyro bias from the initial rest (Tedaldi): the bias is added, so it is minus the mean.
+  // Gyro bias from every rest, the initial one included (at rest the rate is -b): the bias is
+  // added, so it is minus the mean rate over all rest samples.
   V3 mean_rate = V3::Zero();
-  for (std::size_t i = 0; i < init_end; ++i) mean_rate += s[i].gyro;
-  const V3 bias0 = -mean_rate / static_cast<double>(init_end);
+  double rest_samples = 0.0;
+  for (const auto& r : res.rests)
+    for (std::size_t i = r.begin; i < r.end; ++i) {
+      mean_rate += s[i].gyro;
+      rest_samples += 1.0;
+    }
+  const V3 bias0 = -mean_rate / rest_samples;
 
   std::vector<Move> moves;
   for (std::size_t k = 0; k + 1 < res.rests.size(); ++k) {

@@ -1,5 +1,6 @@
 // Test support: the streaming calibrator's settings for the xsens recording, said once for the
-// tests and the instruction benchmark (what the recording's README gives about it).
+// tests and the instruction benchmark (what the recording's README gives about it: the units and
+// gravity; the detector's settings are the defaults).
 #pragma once
 
 #include "imucal/calibrator.hpp"
@@ -11,7 +12,6 @@ constexpr double kXsensCountsPerRadS = 4770;  // datasheet order of magnitude of
 
 inline CalibratorSettings<float> xsens_calibrator_settings(bool refine_bias = false) {
   CalibratorSettings<float> s;
-  s.initial_rest_seconds = 40.0f;  // the recording starts with ~50 s of rest
   s.accel.gravity = static_cast<float>(kXsensGravity);
   s.accel_zero_hint = Vector3<float>::Constant(32768.0f);  // unsigned 16-bit counts
   s.gyro.nominal_scale = static_cast<float>(1.0 / kXsensCountsPerRadS);

@@ -5,18 +5,21 @@
 // (math.md sections 4 and 5), all in fixed stores sized at compile time.
 //
 // The stream, per sample:
-//   1. Initial rest (initial_rest_seconds): gyro bias b0, the noise levels that set the
-//      stillness thresholds, the sample period. Checked for motion (quarter means).
-//   2. Stillness, causal: exponential moving averages with time constant detector_seconds of
-//      the accelerometer variance (per axis, norm compared with accel_k x the initial rest's) and
-//      of the gyro energy |w + b0|^2 (compared with gyro_k x the initial rest's).
+//   1. Initial rest: the first still period of at least initial_rest_seconds, found by a window
+//      of four quarters sliding over the stream (quarter means that agree within the noise and
+//      the quarter variances alike). It gives the gyro bias to start from, the noise levels that
+//      set the first stillness thresholds and the sample period, and it goes on as pose 0 until
+//      the first motion, however long it lasts.
+//   2. Stillness (stillness.hpp): causal moving averages of the accelerometer variance and of the
+//      gyro energy |w + b0|^2, against thresholds that follow the noise of the rests and the
+//      level of the moves, so that rests held in the hand count as well as table-top ones.
 //   3. Samples are folded into short blocks (at most block_seconds, all still or all moving,
 //      each a valid gyro segment). Still blocks wait in a delay line of trim_seconds: a still
 //      block that is followed by trim_seconds of stillness joins the current rest; when motion
 //      comes, the blocks still in the line (the rest's last trim_seconds) go to the move. A rest
 //      becomes a pose when motion ends it, if it lasted min_rest_seconds; a shorter one is part
 //      of the move. A lone outlier cannot end a rest (each sample's weight in the averages is
-//      clipped, outlier_sigma); a real disturbance ends it, and then everything between the two
+//      clipped); a real disturbance ends it, and then everything between the two
 //      poses is integrated as a move: nothing is lost in between.
 //   4. Moves: every non-pose block's gyro statistics go to the segment store, merged with the
 //      previous segment while the merged one stays a small, nearly single-axis rotation
@@ -41,6 +44,7 @@
 #include "imucal/gyro_segment.hpp"
 #include "imucal/pose_store.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stillness.hpp"
 #include "imucal/temperature_model.hpp"
 
 namespace imucal {
@@ -70,17 +74,22 @@ struct ImuSample {
 
 template <typename Scalar>
 struct CalibratorSettings {
-  Scalar initial_rest_seconds = Scalar(10);  // Tedaldi's protocol uses about 50 s
-  Scalar min_rest_seconds = Scalar(1);       // a shorter rest is not a pose
-  Scalar trim_seconds = Scalar(0.3);         // cut from a rest's end before the motion showed
-  Scalar detector_seconds = Scalar(0.1);     // time constant of the moving averages
-  Scalar accel_k = Scalar(4);                // threshold on the accelerometer variance norm
-  Scalar gyro_k = Scalar(8);                 // threshold on the gyro energy
-  Scalar outlier_sigma = Scalar(6);          // one sample moves the averages by at most this
-  Scalar block_seconds = Scalar(0.1);        // granularity of the trimming
-  Scalar gap_factor = Scalar(5);             // a step above this x the mean period is a gap
-  Scalar max_step_seconds = Scalar(0.5);     // a gap whatever the period (initial rest too)
-  Scalar frozen_seconds = Scalar(0.5);       // identical readings this long: sensor frozen
+  // The initial rest is the first still period of at least this long (however long it then
+  // lasts, until the first motion): the gyro bias to start from, the noise that sets the first
+  // thresholds, the sample period.
+  Scalar initial_rest_seconds = Scalar(2);
+  // A still spell of at least this long (as the detector sees it, trimmed part included) is a
+  // pose; a shorter one is part of the move around it.
+  Scalar min_rest_seconds = Scalar(0.6);
+  Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
+  StillnessSettings<Scalar> stillness{};  // the detector (stillness.hpp)
+  // false: the stream carries no gyro (its readings are ignored): stillness from the
+  // accelerometer alone, the solve ends after the accelerometer.
+  bool has_gyro = true;
+  Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
+  Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
+  Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period (initial rest too)
+  Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
   // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
   // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
   // the range in SI units). The defaults only refuse readings too large for the float sums.
@@ -175,9 +184,10 @@ struct Calibration {
   Scalar temperature_c = Scalar(0);   // if so, its mean over the samples taken (deg C)
 };
 
-// The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, 636 segments, one partial
-// coarsening in the motion after its last rest) in 31.8 KiB of float (bench/footprint).
-template <typename Scalar, int MaxPoses = 48, int MaxSegments = 640, int DelayBlocks = 8>
+// The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, one partial coarsening of
+// the segment store in the motion after its last rest) in about 32.2 KiB of float
+// (bench/footprint).
+template <typename Scalar, int MaxPoses = 48, int MaxSegments = 630, int DelayBlocks = 8>
 class Calibrator {
  public:
   static_assert(MaxPoses >= kAccelMinPoses, "too few poses for the accelerometer model");
@@ -226,6 +236,11 @@ class Calibrator {
     chain_from_ = -1;
     move_first_ = 0;
     last_mergeable_ = false;
+    tail_only_ = false;
+    rate_sum_.setZero();
+    rate_sq_.setZero();
+    rate_time_ = Scalar(0);
+    rate_rests_ = 0;
     rest_open_ = false;
     block_ = Block{};
     delay_count_ = 0;
@@ -256,8 +271,10 @@ class Calibrator {
   // Taken with a note: kSaturated for an accelerometer at full scale (the sample counts as
   // motion), kTimestampGap, kClockReset, kSampleRateOff, kInitialRestDisturbed,
   // kCapacityExceeded (pose store full). Every case is counted in progress().stream.
-  Status add(const ImuSample<Scalar>& s) {
+  Status add(const ImuSample<Scalar>& sample) {
     if (!settings_ok_) return refuse(Status::kInvalidArgument);
+    ImuSample<Scalar> s = sample;
+    if (!settings_.has_gyro) s.gyro.setZero();  // ignored, whatever it holds
     if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed) {
       ++counts_.busy;
       return refuse(Status::kBusy);
@@ -294,7 +311,7 @@ class Calibrator {
     Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
     // Frozen: either sensor's reading bit-identical to its previous one for frozen_seconds.
     if (have_prev_ && !restart_stream_ &&
-        (same_bits(s.acc, acc_prev_) || same_bits(s.gyro, gyro_prev_))) {
+        (same_bits(s.acc, acc_prev_) || (settings_.has_gyro && same_bits(s.gyro, gyro_prev_)))) {
       frozen_time_ += dt;
       t_prev_ = s.t_us;
       if (frozen_time_ >= settings_.frozen_seconds) {
@@ -363,7 +380,7 @@ class Calibrator {
     p.phase = phase_;
     p.last_event = last_event_;
     p.initial_rest_done = phase_ == Phase::kInitialRest
-                              ? static_cast<float>(init_.elapsed / settings_.initial_rest_seconds)
+                              ? static_cast<float>(init_.elapsed() / settings_.initial_rest_seconds)
                               : 1.0f;
     p.poses = poses_.size();
     p.moves = move_count_;
@@ -385,6 +402,16 @@ class Calibrator {
     while (p.next_axis < 2 && ((p.axes_turned >> p.next_axis) & 1)) ++p.next_axis;
     p.hint = hint(p);
     return p;
+  }
+
+  // The stream has ended (a recording's last sample): a rest still open becomes a pose if long
+  // enough, a move in progress is dropped (it has no pose to end at). solve() does this itself;
+  // call it to see every pose before solving, or when there are too few to solve. A sample added
+  // afterwards starts the stream again as after a gap.
+  void end_stream() {
+    if (phase_ != Phase::kCollecting && phase_ != Phase::kReady) return;
+    end_of_stream();
+    restart_stream_ = true;
   }
 
   // Ends the collection and starts the solve. kRunning: call solve_step() until it returns
@@ -417,6 +444,11 @@ class Calibrator {
                                                                   : accel_solver_.status();
       if (s == Status::kRunning) return s;
       if (!succeeded(accel_solver_.finish(calibration_.accel))) return fail_accel();
+      if (!settings_.has_gyro) {  // the accelerometer alone: done
+        calibration_.quality = quality();
+        phase_ = Phase::kDone;
+        return calibration_.accel.status;
+      }
       start_gyro();
       return phase_ == Phase::kFailed ? calibration_status() : Status::kRunning;
     }
@@ -426,8 +458,8 @@ class Calibrator {
       gyro12_.finish(calibration_.gyro);
     } else {
       gyro9_.finish(calibration_.gyro);
-      if (succeeded(calibration_.gyro.status))  // the bias is the initial rest's mean rate
-        calibration_.gyro.sigma.template tail<3>() = b0_sigma_;
+      if (succeeded(calibration_.gyro.status))  // the bias is the rests' mean rate
+        calibration_.gyro.sigma.template tail<3>() = rest_bias_sigma();
     }
     calibration_.quality = quality();
     phase_ = succeeded(calibration_.gyro.status) ? Phase::kDone : Phase::kFailed;
@@ -459,9 +491,7 @@ class Calibrator {
   const Vector3<Scalar>& gyro_bias0() const { return b0_; }
   const Vector3<Scalar>& accel_noise_variance() const { return v0_; }
   // The gyro's per-axis noise variance over the initial rest (sensor units^2).
-  Vector3<Scalar> gyro_noise_variance() const {
-    return b0_sigma_.cwiseProduct(b0_sigma_) * static_cast<Scalar>(init_.n);
-  }
+  Vector3<Scalar> gyro_noise_variance() const { return gv0_; }
   Scalar mean_period() const { return period_; }
   // The mean temperature of the samples taken so far; false if none carried one.
   bool mean_temperature(Scalar& out) const {
@@ -488,6 +518,7 @@ class Calibrator {
     Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
     Vector3<Scalar> acc_comp = Vector3<Scalar>::Zero();  // low part: the sum is sum + comp
     Scalar path = Scalar(0);
+    Scalar accel_cue = Scalar(0), energy_cue = Scalar(0);  // the detector's sample cues, summed
     Scalar temp_sum = Scalar(0);  // temperatures relative to the stream's first one
     std::uint32_t temp_n = 0;     // samples that carried a temperature
     std::uint32_t n = 0;
@@ -501,6 +532,7 @@ class Calibrator {
       acc_sum.setZero();
       acc_comp.setZero();
       path = Scalar(0);
+      accel_cue = energy_cue = Scalar(0);
       temp_sum = Scalar(0);
       temp_n = 0;
       n = 0;
@@ -525,6 +557,8 @@ class Calibrator {
         for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), add(i));
       }
       path += later.path;
+      accel_cue += later.accel_cue;
+      energy_cue += later.energy_cue;
       temp_sum += later.temp_sum;
       temp_n += later.temp_n;
       if (n == 0) t_begin = later.t_begin;
@@ -533,27 +567,55 @@ class Calibrator {
     }
   };
 
-  struct InitialRest {
+  // A quarter of the initial-rest window while it fills: sums re-centred on its own first
+  // reading (float keeps the noise's precision on raw counts ~33000 even after the board moved).
+  struct QuarterSums {
+    Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero(), gyro_ref = Vector3<Scalar>::Zero();
+    Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero(), acc_sq = Vector3<Scalar>::Zero();
+    Vector3<Scalar> gyro_sum = Vector3<Scalar>::Zero(), gyro_sq = Vector3<Scalar>::Zero();
     Scalar elapsed = Scalar(0);
     std::uint32_t n = 0;
     std::uint32_t t_begin = 0, t_end = 0;
-    Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero(), acc_sq = Vector3<Scalar>::Zero();
-    Vector3<Scalar> gyro_sum = Vector3<Scalar>::Zero(), gyro_sq = Vector3<Scalar>::Zero();
-    // Quarter sums, to see a drift of the means (the unit moved during the initial rest).
-    // Spelled out: `= {}` default-constructs Eigen vectors, which leaves them uninitialised (a
-    // -O2 sanitizer build's -Wuninitialized found the quarter sums starting from garbage).
-    Vector3<Scalar> acc_q[4] = {Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero(),
-                                Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero()};
-    Vector3<Scalar> gyro_q[4] = {Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero(),
-                                 Vector3<Scalar>::Zero(), Vector3<Scalar>::Zero()};
-    std::uint32_t n_q[4] = {};
+  };
+  // A complete quarter: means and per-axis variances.
+  struct Quarter {
+    Vector3<Scalar> acc_mean = Vector3<Scalar>::Zero(), acc_var = Vector3<Scalar>::Zero();
+    Vector3<Scalar> gyro_mean = Vector3<Scalar>::Zero(), gyro_var = Vector3<Scalar>::Zero();
+    Scalar elapsed = Scalar(0);
+    std::uint32_t n = 0;
+    std::uint32_t t_begin = 0, t_end = 0;
+
+    Quarter() = default;
+    explicit Quarter(const QuarterSums& q)
+        : elapsed(q.elapsed), n(q.n), t_begin(q.t_begin), t_end(q.t_end) {
+      if (n == 0) return;
+      const Scalar k = Scalar(1) / static_cast<Scalar>(n);
+      const Vector3<Scalar> ma = k * q.acc_sum, mg = k * q.gyro_sum;
+      acc_mean = q.acc_ref + ma;
+      gyro_mean = q.gyro_ref + mg;
+      acc_var = (k * q.acc_sq - ma.cwiseProduct(ma)).cwiseMax(Scalar(0));
+      gyro_var = (k * q.gyro_sq - mg.cwiseProduct(mg)).cwiseMax(Scalar(0));
+    }
+  };
+
+  // The window sliding over the stream until it is still: the last four complete quarters (a
+  // ring) and the one filling.
+  struct InitialRest {
+    Quarter q[4] = {};
+    QuarterSums cur{};
+    int head = 0, count = 0;
+    Scalar elapsed() const {
+      Scalar e = cur.elapsed;
+      for (int k = 0; k < count; ++k) e += q[(head + k) % 4].elapsed;
+      return e;
+    }
+    const Quarter& at(int k) const { return q[(head + k) % 4]; }
   };
 
   bool check_settings() const {
     const CalibratorSettings<Scalar>& c = settings_;
-    return c.initial_rest_seconds >= c.min_rest_seconds && c.min_rest_seconds > Scalar(0) &&
-           c.trim_seconds >= Scalar(0) && c.detector_seconds > Scalar(0) && c.accel_k > Scalar(1) &&
-           c.gyro_k > Scalar(1) && c.block_seconds > Scalar(0) &&
+    return c.initial_rest_seconds > Scalar(0) && c.min_rest_seconds > Scalar(0) &&
+           c.trim_seconds >= Scalar(0) && c.stillness.valid() && c.block_seconds > Scalar(0) &&
            c.trim_seconds <= c.block_seconds * Scalar(DelayBlocks - 1) &&
            c.gap_factor > Scalar(1) && c.max_step_seconds > Scalar(0) &&
            c.frozen_seconds > Scalar(0) && c.segment_max_angle > Scalar(0) &&
@@ -639,82 +701,109 @@ class Calibrator {
   }
 
   Status initial_rest_sample(const ImuSample<Scalar>& s, Scalar dt) {
-    if (init_.n == 0) {
-      a_ref_ = s.acc;
-      g_ref_ = s.gyro;
-      init_.t_begin = s.t_us;
+    QuarterSums& c = init_.cur;
+    if (c.n == 0) {
+      c.acc_ref = s.acc;
+      c.gyro_ref = s.gyro;
+      c.t_begin = s.t_us;
+      dt = init_.count == 0 ? Scalar(0) : dt;  // the window's span starts at its first sample
     }
-    init_.elapsed += dt;
-    const Vector3<Scalar> a = s.acc - a_ref_, g = s.gyro - g_ref_;
-    init_.acc_sum += a;
-    init_.acc_sq += a.cwiseProduct(a);
-    init_.gyro_sum += g;
-    init_.gyro_sq += g.cwiseProduct(g);
-    int q = static_cast<int>(Scalar(4) * init_.elapsed / settings_.initial_rest_seconds);
-    q = q > 3 ? 3 : q;
-    init_.acc_q[q] += a;
-    init_.gyro_q[q] += g;
-    ++init_.n_q[q];
-    ++init_.n;
-    init_.t_end = s.t_us;
-    if (init_.elapsed < settings_.initial_rest_seconds) return Status::kOk;
+    c.elapsed += dt;
+    const Vector3<Scalar> a = s.acc - c.acc_ref, g = s.gyro - c.gyro_ref;
+    c.acc_sum += a;
+    c.acc_sq += a.cwiseProduct(a);
+    c.gyro_sum += g;
+    c.gyro_sq += g.cwiseProduct(g);
+    ++c.n;
+    c.t_end = s.t_us;
+    if (c.elapsed < Scalar(0.25) * settings_.initial_rest_seconds) return Status::kOk;
+    // The quarter is complete: into the ring (the oldest slides out), then the window's test.
+    if (init_.count == 4) {
+      init_.head = (init_.head + 1) % 4;
+      --init_.count;
+    }
+    init_.q[(init_.head + init_.count) % 4] = Quarter(c);
+    ++init_.count;
+    init_.cur = QuarterSums{};
+    if (init_.count < 4) return Status::kOk;
     return finish_initial_rest();
   }
 
+  // Still: every quarter's variance within 9x the smallest (motion raises it by orders of
+  // magnitude), and every quarter mean within (8 sigma of a quarter mean) + (1 sigma of a
+  // sample) of the window's mean. The second term keeps the test from growing stricter with the
+  // sample rate: a warming board's slow drift is not motion, a tilt of a fraction of a degree is.
   Status finish_initial_rest() {
-    const Scalar n = static_cast<Scalar>(init_.n);
-    const Vector3<Scalar> acc_mean = init_.acc_sum / n, gyro_mean = init_.gyro_sum / n;
-    v0_ = (init_.acc_sq / n - acc_mean.cwiseProduct(acc_mean)).cwiseMax(Scalar(0));
-    const Vector3<Scalar> gv =
-        (init_.gyro_sq / n - gyro_mean.cwiseProduct(gyro_mean)).cwiseMax(Scalar(0));
-    // No noise on an axis: a frozen or disconnected sensor, no threshold can be set from it.
-    if (!(v0_.minCoeff() > Scalar(0)) || !(gv.minCoeff() > Scalar(0))) {
-      restart_initial_rest();
-      return last_event_ = Status::kSensorFrozen;
+    Vector3<Scalar> va_min = init_.at(0).acc_var, va_max = va_min;
+    Vector3<Scalar> vg_min = init_.at(0).gyro_var, vg_max = vg_min;
+    Scalar n = Scalar(0);
+    Vector3<Scalar> va = Vector3<Scalar>::Zero(), vg = Vector3<Scalar>::Zero();
+    Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero(), gyro_sum = Vector3<Scalar>::Zero();
+    const Quarter& first = init_.at(0);
+    for (int k = 0; k < 4; ++k) {
+      const Quarter& q = init_.at(k);
+      const Scalar nq = static_cast<Scalar>(q.n);
+      va_min = va_min.cwiseMin(q.acc_var);
+      va_max = va_max.cwiseMax(q.acc_var);
+      vg_min = vg_min.cwiseMin(q.gyro_var);
+      vg_max = vg_max.cwiseMax(q.gyro_var);
+      va += nq * q.acc_var;
+      vg += nq * q.gyro_var;
+      acc_sum += nq * (q.acc_mean - first.acc_mean);  // relative to the first quarter's mean
+      gyro_sum += nq * (q.gyro_mean - first.gyro_mean);
+      n += nq;
     }
-    // Motion during the rest shows as quarter means further apart than the noise allows
-    // (8 sigma of a quarter mean: the Xsens's slow drift over 50 s stays well inside).
-    for (int q = 0; q < 4; ++q) {
-      if (init_.n_q[q] == 0) continue;
-      const Scalar nq = static_cast<Scalar>(init_.n_q[q]);
-      const Vector3<Scalar> da = init_.acc_q[q] / nq - acc_mean;
-      const Vector3<Scalar> dg = init_.gyro_q[q] / nq - gyro_mean;
-      const Scalar limit = Scalar(64) / nq;  // (8 sigma)^2 / n_q, per unit variance
+    va /= n;
+    vg /= n;
+    const Vector3<Scalar> acc_mean = acc_sum / n, gyro_mean = gyro_sum / n;
+    // No noise on an axis: a frozen or disconnected sensor, no threshold can be set from it.
+    if (!(va_min.minCoeff() > Scalar(0)) ||
+        (settings_.has_gyro && !(vg_min.minCoeff() > Scalar(0))))
+      return last_event_ = Status::kSensorFrozen;
+    for (int i = 0; i < 3; ++i) {
+      if (va_max(i) > Scalar(9) * va_min(i) ||
+          (settings_.has_gyro && vg_max(i) > Scalar(9) * vg_min(i)))
+        return last_event_ = Status::kInitialRestDisturbed;
+    }
+    for (int k = 0; k < 4; ++k) {
+      const Quarter& q = init_.at(k);
+      const Scalar nq = static_cast<Scalar>(q.n);
+      const Vector3<Scalar> da = q.acc_mean - (first.acc_mean + acc_mean);
+      const Vector3<Scalar> dg = q.gyro_mean - (first.gyro_mean + gyro_mean);
+      const Scalar limit = Scalar(64) / nq + Scalar(1);
       for (int i = 0; i < 3; ++i) {
-        if (da(i) * da(i) > limit * v0_(i) || dg(i) * dg(i) > limit * gv(i)) {
-          restart_initial_rest();
+        if (da(i) * da(i) > limit * va(i) || (settings_.has_gyro && dg(i) * dg(i) > limit * vg(i)))
           return last_event_ = Status::kInitialRestDisturbed;
-        }
       }
     }
-    b0_ = -(g_ref_ + gyro_mean);
-    e0_ = gv.sum();
-    b0_sigma_ = (gv / n).cwiseSqrt();  // of the mean rate: the bias's sigma when not refined
-    u_prev_.setZero();                 // the rate at the rest's end, bias removed
-    const Scalar clip = settings_.outlier_sigma * settings_.outlier_sigma;
-    clip_v0_ = clip * v0_;
-    clip_e0_ = clip * e0_;
-    still_var2_ = settings_.accel_k * settings_.accel_k * v0_.squaredNorm();
-    still_energy_ = settings_.gyro_k * e0_;
-    period_ = init_.elapsed / (n - Scalar(1));
+    a_ref_ = first.acc_mean;
+    v0_ = va;
+    gv0_ = settings_.has_gyro ? vg : Vector3<Scalar>::Zero();
+    b0_ = settings_.has_gyro ? Vector3<Scalar>(-(first.gyro_mean + gyro_mean))
+                             : Vector3<Scalar>::Zero();
+    b0_sigma_ = (gv0_ / n).cwiseSqrt();  // of the mean rate
+    u_prev_.setZero();                   // the rate at the rest's end, bias removed
+    const std::uint32_t t_begin = first.t_begin, t_end = init_.at(3).t_end;
+    period_ = static_cast<Scalar>(t_end - t_begin) * Scalar(1e-6) / (n - Scalar(1));
     // The detector starts from the rest's own statistics.
-    ema_mean_ = acc_mean;
-    ema_var_ = v0_;
-    ema_energy_ = e0_;
+    detector_.start(settings_.stillness, acc_mean, v0_, gv0_.sum());
     // The initial rest is the first rest: it becomes pose 0 when the first move starts.
     rest_ = Block{};
     rest_.acc_ref = a_ref_;
-    rest_.acc_sum = init_.acc_sum;
-    rest_.long_enough = true;  // initial_rest_seconds >= min_rest_seconds
-    rest_.n = init_.n;
-    // The temperatures so far (those of a restarted initial rest too: close enough for a mean).
+    rest_.acc_sum = acc_sum;
+    rest_.long_enough = false;  // decided by its length, as every rest
+    rest_.n = static_cast<std::uint32_t>(n);
+    rest_.accel_cue = n * v0_.sum();
+    rest_.energy_cue = n * gv0_.sum();
+    // The temperatures so far (those before the window too: close enough for a mean).
     rest_.temp_sum = temp_sum_ + temp_comp_;
     rest_.temp_n = temp_n_;
-    rest_.t_begin = init_.t_begin;
-    rest_.t_end = init_.t_end;
+    rest_.t_begin = t_begin;
+    rest_.t_end = t_end;
     rest_open_ = true;
     block_ = Block{};
     phase_ = Phase::kCollecting;
+    init_ = InitialRest{};
     update_gap_limit();
     return Status::kOk;
   }
@@ -724,38 +813,22 @@ class Calibrator {
   // The per-sample path, written per axis with the thresholds precomputed (bench_stream counts
   // its instructions): the detector, then the sample folded into the current block.
   void collect_sample(const ImuSample<Scalar>& s, Scalar dt, bool moving) {
-    // Moving averages weighted by the actual step: sample-rate jitter changes nothing. Each
-    // sample's contribution is clipped at outlier_sigma: a lone spike (the Xsens has 13-sigma
-    // ones at rest) cannot end a rest, real motion still shows within 2-3 samples.
-    const Scalar w = dt / (settings_.detector_seconds + dt);
-    // A saturated accelerometer reading says nothing about the acceleration: it leaves the
-    // accelerometer's averages alone, and the sample counts as motion (`moving`).
-    const Scalar wa = moving ? Scalar(0) : w;
-    const Scalar keep = Scalar(1) - wa;
     // The rate over the interval is the mean of its two end samples (trapezoid, as the RK4
     // reference interpolates linearly between samples): holding the newer sample instead
     // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale. (A
     // first sample has dt = 0: whatever u_prev_ holds then adds nothing.)
-    Vector3<Scalar> u_mid;
-    Scalar var2 = Scalar(0), energy = Scalar(0), path2 = Scalar(0);
+    Vector3<Scalar> u, u_mid;
+    Scalar path2 = Scalar(0);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
-      const Scalar ai = s.acc(i) - a_ref_(i);
-      const Scalar d = ai - ema_mean_(i);
-      ema_mean_(i) += wa * d;
-      const Scalar d2 = d * d < clip_v0_(i) ? d * d : clip_v0_(i);
-      const Scalar v = keep * (ema_var_(i) + wa * d2);
-      ema_var_(i) = v;
-      var2 += v * v;
       const Scalar ui = s.gyro(i) + b0_(i);
-      energy += ui * ui;
       const Scalar mi = Scalar(0.5) * (ui + u_prev_(i));
+      u(i) = ui;
       u_prev_(i) = ui;
       path2 += mi * mi;
       u_mid(i) = mi;
     }
-    ema_energy_ += w * ((energy < clip_e0_ ? energy : clip_e0_) - ema_energy_);
-    const bool still = !moving && var2 <= still_var2_ && ema_energy_ <= still_energy_;
+    const bool still = detector_.update(s.acc - a_ref_, u, dt, moving);
     last_still_ = still;
     // Blocks are homogeneous, short, and valid segments: close before a change of state or
     // a path angle above the segment bound, after the duration or the error bound.
@@ -770,6 +843,8 @@ class Calibrator {
     block_.seg.add(u_mid, dt);
     block_.acc_sum += s.acc - block_.acc_ref;
     block_.path += step_path;
+    block_.accel_cue += detector_.sample_accel();
+    block_.energy_cue += detector_.sample_energy();
     if (s.temperature == s.temperature) {
       block_.temp_sum += s.temperature - temp_ref_;
       ++block_.temp_n;
@@ -794,6 +869,8 @@ class Calibrator {
       }
       return;
     }
+    const Scalar inv_n = Scalar(1) / static_cast<Scalar>(block_.n);
+    detector_.learn_motion(block_.accel_cue * inv_n, block_.energy_cue * inv_n);
     motion_after(block_);
     block_.clear();
   }
@@ -801,7 +878,7 @@ class Calibrator {
   // Motion has come: the rest (if any) ends, the trimmed blocks and then b (if any) belong to
   // the move.
   void motion_after(const Block& b) {
-    end_rest();
+    end_rest(true);
     flush_delay_to_move();
     push_segment(b);  // an empty block adds nothing
   }
@@ -861,10 +938,12 @@ class Calibrator {
 
   // The open rest ends (motion, gap, end of stream): a pose if long enough, else part of the
   // move in progress.
-  void end_rest() {
+  // with_delay_line: the still blocks in the delay line (about to be trimmed into the move) count
+  // towards the rest's length: the shortest usable rest is min_rest_seconds of stillness.
+  void end_rest(bool with_delay_line) {
     if (!rest_open_) return;
     rest_open_ = false;
-    if (!rest_long_enough(false)) {
+    if (!rest_long_enough(with_delay_line)) {
       ++rests_too_short_;
       last_rest_short_ = true;
       last_event_ = Status::kRestTooShort;
@@ -887,6 +966,18 @@ class Calibrator {
     summarise_rest();
     pose_time_[index][0] = rest_.t_begin;
     pose_time_[index][1] = rest_.t_end;
+    const Scalar inv_n = Scalar(1) / static_cast<Scalar>(rest_.n);
+    detector_.learn_rest(rest_.accel_cue * inv_n, rest_.energy_cue * inv_n);
+    // The rest's own rotation: held in the hand (its gyro energy well above the quietest rest's),
+    // a board turns a little, and the pose's gravity direction, a mean over the rest, stands for
+    // its time centroid: the move into the pose ends there and the move out of it starts there.
+    // On a table a rest does not turn, and integrating through it would only add the bias's
+    // drift (on the Xsens recording: 1.08 instead of 0.44 deg per move).
+    GyroSegment<Scalar> head{}, tail{};
+    const bool shaky = rest_.energy_cue * inv_n > Scalar(4) * detector_.first_rest_energy();
+    const bool halves = settings_.has_gyro && shaky && rest_halves(rest_.seg, head, tail);
+    if (halves && chain_from_ >= 0 && seg_count_ > move_first_) store_segment(head);
+    if (settings_.has_gyro) add_rest_rate(last_rest_.gyro_mean + b0_, last_rest_.duration_s);
     if (chain_from_ >= 0 && seg_count_ > move_first_) {
       GyroMove& m = moves_[move_count_++];
       m.first_segment = move_first_;
@@ -898,6 +989,10 @@ class Calibrator {
     chain_from_ = index;
     move_first_ = seg_count_;
     last_mergeable_ = false;
+    if (halves) {
+      store_segment(tail);
+      tail_only_ = true;
+    }
     if (phase_ == Phase::kCollecting && poses_.size() >= settings_.target_poses && faces() == 0x3f)
       phase_ = Phase::kReady;
     if (poses_.full()) phase_ = Phase::kReady;
@@ -925,7 +1020,8 @@ class Calibrator {
   // Appends a block's gyro statistics to the move in progress, merged into the last segment
   // while the merged segment stays within the bounds.
   void push_segment(const Block& b) {
-    if (chain_from_ < 0 || b.n == 0) return;  // no pose to start from: nothing to integrate
+    if (chain_from_ < 0 || b.n == 0 || !settings_.has_gyro) return;  // nothing to integrate
+    tail_only_ = false;
     if (last_mergeable_ && seg_count_ > move_first_ && last_path_ + b.path <= seg_angle_) {
       GyroSegment<Scalar> merged = segments_[seg_count_ - 1];
       merged.append(b.seg);
@@ -935,14 +1031,48 @@ class Calibrator {
         return;
       }
     }
-    if (seg_count_ == MaxSegments) coarsen();
-    if (seg_count_ == MaxSegments) {  // one segment per move everywhere: nothing left to merge
-      drop_move();
-      return;
-    }
-    segments_[seg_count_++] = b.seg;
+    if (!store_segment(b.seg)) return;
     last_path_ = b.path;
     last_mergeable_ = true;
+  }
+
+  // A new segment at the end of the store, coarsening it when full; false (the move dropped)
+  // when nothing is left to merge (one segment per move everywhere).
+  bool store_segment(const GyroSegment<Scalar>& seg) {
+    if (seg_count_ == MaxSegments) coarsen();
+    if (seg_count_ == MaxSegments) {
+      drop_move();
+      return false;
+    }
+    segments_[seg_count_++] = seg;
+    last_mergeable_ = false;
+    return true;
+  }
+
+  // A rest's rotation split at its time centroid (first order: the rotation within a rest is a
+  // fraction of a degree). With gamma = sum_{k<l} dt_k dt_l (u_k - u_l) = sum u_k dt_k (T - 2 m_k)
+  // (m_k the middle of interval k), the centroid's attitude is reached after alpha/2 + gamma/2T
+  // and the rest of alpha follows; each half holds T/2 of the bias (alpha_b = alpha + T/2 b).
+  static bool rest_halves(const GyroSegment<Scalar>& r, GyroSegment<Scalar>& head,
+                          GyroSegment<Scalar>& tail) {
+    if (!(r.duration > Scalar(0))) return false;
+    const Vector3<Scalar> half = Scalar(0.5) * r.alpha, skew = r.gamma / (Scalar(2) * r.duration);
+    head = GyroSegment<Scalar>{};
+    tail = GyroSegment<Scalar>{};
+    head.alpha = half + skew;
+    tail.alpha = half - skew;
+    head.duration = tail.duration = Scalar(0.5) * r.duration;
+    return true;
+  }
+
+  // Each pose's mean rate u = w + b0 over its length: at rest w = -b, so their time-weighted
+  // mean gives the bias from every rest, and their scatter its uncertainty.
+  void add_rest_rate(const Vector3<Scalar>& u_mean, Scalar duration) {
+    if (!(duration > Scalar(0))) return;
+    rate_sum_ += duration * u_mean;
+    rate_sq_ += duration * u_mean.cwiseProduct(u_mean);
+    rate_time_ += duration;
+    ++rate_rests_;
   }
 
   // Frees at least an eighth of the store by merging adjacent segments of the same move (exact
@@ -1006,7 +1136,8 @@ class Calibrator {
   // The move in progress cannot be used: its segments are freed, the chain restarts at the
   // next pose.
   void drop_move() {
-    if (chain_from_ >= 0 && seg_count_ > move_first_) ++moves_dropped_;
+    if (chain_from_ >= 0 && seg_count_ > move_first_ && !tail_only_) ++moves_dropped_;
+    tail_only_ = false;
     seg_count_ = move_first_;
     chain_from_ = -1;
     last_mergeable_ = false;
@@ -1060,7 +1191,7 @@ class Calibrator {
     }
     if (delay_count_ > 0 || rest_open_) {
       flush_delay_to_rest();
-      end_rest();
+      end_rest(false);
     } else if (chain_from_ >= 0 && seg_count_ > move_first_) {
       last_event_ = Status::kEndedInMotion;
     }
@@ -1079,6 +1210,7 @@ class Calibrator {
     data.move_count = move_count_;
     data.up = up_;
     data.pose_count = poses_.size();
+    if (rate_time_ > Scalar(0)) data.bias_shift = -rate_sum_ / rate_time_;
     const Status s =
         settings_.gyro.refine_bias ? gyro12_.start(data, b0_) : gyro9_.start(data, b0_);
     if (s != Status::kRunning) {
@@ -1097,16 +1229,33 @@ class Calibrator {
     return calibration_.accel.status;
   }
 
+  // The sigma of the rests' mean rate as the bias: white noise over the rests' total length, or
+  // the scatter of the rests' means (bias instability, a hand-held rest's slow turn) if larger.
+  Vector3<Scalar> rest_bias_sigma() const {
+    if (!(rate_time_ > Scalar(0))) return b0_sigma_;
+    Vector3<Scalar> var = gv0_ * (period_ / rate_time_);
+    if (rate_rests_ >= 2) {
+      const Vector3<Scalar> mean = rate_sum_ / rate_time_;
+      const Vector3<Scalar> scatter =
+          (rate_sq_ / rate_time_ - mean.cwiseProduct(mean)).cwiseMax(Scalar(0)) /
+          static_cast<Scalar>(rate_rests_ - 1);
+      var = var.cwiseMax(scatter);
+    }
+    return var.cwiseSqrt();
+  }
+
   Status calibration_status() const {
     if (!succeeded(calibration_.accel.status)) return calibration_.accel.status;
+    if (!settings_.has_gyro) return calibration_.accel.status;
     return calibration_.gyro.status;
   }
 
   // Good: both calibrated, all six faces, pose residuals within 3x what the noise explains, every
   // sigma within a quarter of its bound. Fair: both calibrated. Poor: the accelerometer only.
+  // Without a gyro (has_gyro false) the accelerometer's part of the same rule decides.
   Quality quality() const {
     if (!succeeded(calibration_.accel.status)) return Quality::kNone;
-    if (!succeeded(calibration_.gyro.status)) return Quality::kPoor;
+    if (settings_.has_gyro && !succeeded(calibration_.gyro.status)) return Quality::kPoor;
     if (faces() != 0x3f) return Quality::kFair;
     // Noise of a pose mean in m/s^2: the per-sample noise (initial rest) over sqrt(samples).
     const AccelVector<Scalar>& p = calibration_.accel.params;
@@ -1117,6 +1266,7 @@ class Calibrator {
     mean_n /= static_cast<Scalar>(poses_.size());
     const Scalar expected = sd.norm() / std::sqrt(Scalar(3) * mean_n);
     if (calibration_.accel.residual_rms > Scalar(3) * expected) return Quality::kFair;
+    if (!settings_.has_gyro) return Quality::kGood;
     const GyroCalibration<Scalar>& g = calibration_.gyro;
     const Scalar quarter = settings_.gyro.max_normalised_sigma / Scalar(4);
     for (int k = 0; k < kGyroMatrixParams; ++k)
@@ -1167,7 +1317,7 @@ class Calibrator {
     if (frozen_) return Hint::kCheckSensor;
     if (last_rest_short_) return Hint::kHoldLonger;
     if (p.faces_covered < 6) return Hint::kTurnToFace;
-    if (p.axes_turned != 0x7) return Hint::kTurnAboutAxis;
+    if (settings_.has_gyro && p.axes_turned != 0x7) return Hint::kTurnAboutAxis;
     return Hint::kTurnToFace;  // all faces seen: more poses, anywhere new
   }
 
@@ -1199,17 +1349,13 @@ class Calibrator {
   Vector3<Scalar> g_ref_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added
   Vector3<Scalar> b0_sigma_ = Vector3<Scalar>::Zero();
-  Vector3<Scalar> v0_ = Vector3<Scalar>::Zero();  // accelerometer variance per axis
-  Scalar e0_ = Scalar(0);                         // gyro energy at rest
-  Scalar period_ = Scalar(0);                     // mean sample period
+  Vector3<Scalar> v0_ = Vector3<Scalar>::Zero();   // accelerometer variance per axis
+  Vector3<Scalar> gv0_ = Vector3<Scalar>::Zero();  // gyro variance per axis
+  Scalar period_ = Scalar(0);                      // mean sample period
 
   // Detector.
-  Vector3<Scalar> ema_mean_ = Vector3<Scalar>::Zero(), ema_var_ = Vector3<Scalar>::Zero();
-  Scalar ema_energy_ = Scalar(0);
+  StillnessDetector<Scalar> detector_{};
   bool last_still_ = true;
-  // Thresholds, precomputed when the initial rest ends.
-  Vector3<Scalar> clip_v0_ = Vector3<Scalar>::Zero();
-  Scalar clip_e0_ = Scalar(0), still_var2_ = Scalar(0), still_energy_ = Scalar(0);
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();  // previous bias-corrected rate
 
   // Blocks, delay line, the open rest.
@@ -1232,7 +1378,12 @@ class Calibrator {
   int chain_from_ = -1;  // pose the move in progress starts from (-1: none)
   int move_first_ = 0;   // its first segment
   bool last_mergeable_ = false;
+  bool tail_only_ = false;  // the move in progress holds only its pose's rest half so far
   Scalar last_path_ = Scalar(0);
+  // The poses' mean rates (add_rest_rate): duration-weighted sums.
+  Vector3<Scalar> rate_sum_ = Vector3<Scalar>::Zero(), rate_sq_ = Vector3<Scalar>::Zero();
+  Scalar rate_time_ = Scalar(0);
+  int rate_rests_ = 0;
   Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0), seg_error2_ = Scalar(0);  // raw units
   std::uint32_t block_us_ = 0, trim_us_ = 0, gap_us_ = 0;
   Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();  // |alpha| per axis over the moves
