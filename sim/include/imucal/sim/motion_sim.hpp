@@ -96,6 +96,18 @@ struct MotionPlan {
   double bump_s = 0.3;      // s, duration of the bump
   // Keep the true attitude of every sample (72 bytes each): off for the small Arm boards.
   bool record_attitude = true;
+  // Rests held in the hand (0: set down): during every rest the body turns with a tremor of this
+  // RMS rate (rad/s; three sinusoids of 4-11 Hz about random axes) and a slow turn of
+  // hand_drift rad over the rest, and accelerates with hand_accel m/s^2 RMS (2-8 Hz). The
+  // rests are still in the truth (`still`): a person would mark them so.
+  double hand_tremor = 0.0;
+  double hand_drift = 0.0;
+  double hand_accel = 0.0;
+  bool hand_initial_rest = false;  // the initial rest held in the hand too (else set down)
+  // A warming board: the raw accelerometer reading drifts along (1, 1, 1)/sqrt(3) by
+  // accel_drift * warm_s * (1 - exp(-t / warm_s)) sensor units (accel_drift per second at first).
+  double accel_drift = 0.0;
+  double warm_s = 30.0;
 };
 
 struct MotionSample {
@@ -118,6 +130,11 @@ struct Recording {
   AccelTruth acc;
   GyroTruth gyro;
 };
+
+// The warming board's accelerometer offset at time t, along (1, 1, 1)/sqrt(3) (sensor units).
+inline double accel_offset(const MotionPlan& plan, double t) {
+  return plan.accel_drift * plan.warm_s * (1.0 - std::exp(-t / plan.warm_s));
+}
 
 namespace detail {
 
@@ -257,12 +274,37 @@ class MotionBuilder {
   // Up (gravity direction) in the body frame.
   Vector3<double> up() const { return r_.row(2).transpose(); }
 
-  // Still samples until `duration` has elapsed (at least one).
-  void rest(double duration) {
+  // Still samples until `duration` has elapsed (at least one); held in the hand if the plan
+  // says so (the body turns and accelerates a little, see MotionPlan::hand_tremor).
+  void rest(double duration, bool in_hand = true) {
     const double t0 = t_;
+    if (!in_hand ||
+        (plan_.hand_tremor <= 0.0 && plan_.hand_accel <= 0.0 && plan_.hand_drift == 0.0)) {
+      do {
+        t_ = next_time(t_);
+        push(Vector3<double>::Zero(), Vector3<double>::Zero(), true);
+      } while (t_ - t0 < duration);
+      return;
+    }
+    std::array<Vector3<double>, 3> axis{};
+    std::array<double, 3> omega{}, phase{};
+    const double amplitude = plan_.hand_tremor / std::sqrt(1.5);  // three sinusoids: RMS
+    for (std::size_t j = 0; j < 3; ++j) {
+      axis[j] = random_direction(rng_) * amplitude;
+      omega[j] = 2.0 * kPi * rng_.uniform(4.0, 11.0);
+      phase[j] = rng_.uniform(0.0, 2.0 * kPi);
+    }
+    const Vector3<double> drift = random_direction(rng_) * (plan_.hand_drift / duration);
+    const Vector3<double> push_dir = random_direction(rng_) * (plan_.hand_accel * std::sqrt(2.0));
+    const double push_omega = 2.0 * kPi * rng_.uniform(2.0, 8.0);
+    const double push_phase = rng_.uniform(0.0, 2.0 * kPi);
     do {
-      t_ = next_time(t_);
-      push(Vector3<double>::Zero(), Vector3<double>::Zero(), true);
+      const double t = next_time(t_);
+      const double tau = 0.5 * ((t_ - t0) + (t - t0));  // the interval's middle
+      Vector3<double> w = drift;
+      for (std::size_t j = 0; j < 3; ++j) w += axis[j] * std::sin(omega[j] * tau + phase[j]);
+      advance(t, w);
+      push(w, push_dir * std::sin(push_omega * (t - t0) + push_phase), true);
     } while (t_ - t0 < duration);
   }
 
@@ -411,6 +453,8 @@ class MotionBuilder {
     s.still = still;
     const Vector3<double> f = r_.transpose() * (Vector3<double>(0.0, 0.0, plan_.gravity) + a_lin);
     s.acc = raw_from_calibrated(rec_.acc, f) + noise(acc_spec_.noise);
+    if (plan_.accel_drift != 0.0)
+      s.acc += Vector3<double>::Constant(accel_offset(plan_, t_) / std::sqrt(3.0));
     s.gyro = raw_gyro_from_rate(rec_.gyro, w) + noise(gyro_spec_.noise);
     rec_.samples.push_back(s);
     if (plan_.record_attitude) rec_.attitude.push_back(r_);
@@ -467,7 +511,7 @@ inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& 
   detail::MotionBuilder builder(plan, acc_spec, gyro_spec, rng, rec);
   detail::TargetPlanner planner(max_angle);
   builder.start(random_rotation(rng));
-  builder.rest(plan.initial_rest_s);
+  builder.rest(plan.initial_rest_s, plan.hand_initial_rest);
   planner.record_rest(builder.up());
   for (int i = 0; i < plan.poses; ++i) {
     const Vector3<double> up = builder.up();
