@@ -497,6 +497,7 @@ int magnetometer_alone(const Options& o, const std::vector<Sample>& samples, Run
 template <typename Scalar>
 int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
   run.has_gyro = false;
+  run.mag.status = "no magnetometer columns (mx, my, mz)";
   std::vector<Pose<Scalar>> poses;
   for (const Sample& x : samples)
     poses.push_back({Vector3<Scalar>(static_cast<Scalar>(x.acc[0]), static_cast<Scalar>(x.acc[1]),
@@ -985,6 +986,7 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   Diagnostics diag;
   SampleReader reader;
   reader.set_columns(o.columns);
+  if (o.pose_file) reader.set_headerless_columns("ax,ay,az");
   if (!reader.open(o.files, o.format, diag)) {
     print_diagnostics(diag);
     return 2;

@@ -433,6 +433,10 @@ bool SampleReader::read_header(Diagnostics& diag) {
       if (s.key == "columns") given = s.value;
     columns_source_ = "columns= comment";
   }
+  if (given.empty() && numeric && !columns_default_.empty()) {
+    given = columns_default_;
+    columns_source_ = "assumed";
+  }
   std::vector<std::string> names;
   if (!given.empty()) {
     std::vector<Field> parts;

@@ -142,6 +142,9 @@ class SampleReader {
   // a column), given before open(): they win over a header line (then skipped) and over a
   // `# imucal: columns=...` comment.
   void set_columns(std::string names) { columns_given_ = std::move(names); }
+  // The names of a file without a header when none are given (instead of six numeric columns
+  // as ax ay az gx gy gz): e.g. "ax,ay,az" for a file of poses.
+  void set_headerless_columns(std::string names) { columns_default_ = std::move(names); }
   // The next good sample; bad lines on the way are reported and skipped. False at the end.
   bool next(Record& r, Diagnostics& diag);
 
@@ -184,7 +187,7 @@ class SampleReader {
   int col_temp_ = -1, col_mag_[3] = {-1, -1, -1};
   std::size_t columns_ = 0;
   std::string column_list_;
-  std::string columns_given_, columns_source_;
+  std::string columns_given_, columns_default_, columns_source_;
   double rate_hz_ = 0;
   long index_ = 0;  // good samples so far (their time without a t column)
   std::vector<Field> fields_;

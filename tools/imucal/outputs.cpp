@@ -191,9 +191,14 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                run.scalar == "float" ? ", as on the device" : ", the reference");
   std::string files;
   for (const std::string& f : o.files) files += (files.empty() ? "" : " + ") + f;
-  std::fprintf(out, "input    %s (%s): %ld samples, %.1f s, %.1f Hz; %ld lines skipped\n",
-               files.c_str(), run.format.c_str(), run.samples, run.t_last - run.t_first,
-               run.rate_hz, run.lines_skipped);
+  if (run.time_source == "none")
+    std::fprintf(out, "input    %s (%s): %ld %s, no time; %ld lines skipped\n", files.c_str(),
+                 run.format.c_str(), run.samples, run.mode == "poses" ? "poses" : "samples",
+                 run.lines_skipped);
+  else
+    std::fprintf(out, "input    %s (%s): %ld samples, %.1f s, %.1f Hz; %ld lines skipped\n",
+                 files.c_str(), run.format.c_str(), run.samples, run.t_last - run.t_first,
+                 run.rate_hz, run.lines_skipped);
   // Settings read from the input, one line per place they were found.
   std::string where, line;
   for (const std::string& s : o.from_files) {
@@ -216,9 +221,8 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                run.mode == "poses" ? " (one pose mean per line)" : "");
   if (run.columns_source != "header" && run.columns_source != "imu_tk")
     std::fprintf(out, "columns  %s (%s)\n", run.columns.c_str(),
-                 run.columns_source == "assumed"
-                     ? "assumed: six numeric columns and no header; --columns says otherwise"
-                     : ("from " + run.columns_source).c_str());
+                 run.columns_source == "assumed" ? "assumed: no header; --columns says otherwise"
+                                                 : ("from " + run.columns_source).c_str());
   if (run.time_source == "--rate")
     std::fprintf(out, "time     no t column: sample i at i / %g s (--rate)\n", o.nominal_rate_hz);
   auto inferred = [&](const char* sensor, const std::string& format, double lo, double hi) {
@@ -298,11 +302,12 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  fmt("%.5f", run.accel_pose_rms_before).c_str(),
                  fmt("%.5f", run.accel_pose_rms_after).c_str(),
                  run.have_nominal_accel ? "" : " (before: give the nominal --accel-lsb-per-g)");
-    std::fprintf(out,
-                 "  per sample over the rests, RMS: %s m/s^2 (the sensor's own noise about each "
-                 "pose: %s)\n",
-                 fmt("%.5f", run.accel_sample_rms_after).c_str(),
-                 fmt("%.5f", run.accel_noise_floor).c_str());
+    if (run.mode == "stream")
+      std::fprintf(out,
+                   "  per sample over the rests, RMS: %s m/s^2 (the sensor's own noise about each "
+                   "pose: %s)\n",
+                   fmt("%.5f", run.accel_sample_rms_after).c_str(),
+                   fmt("%.5f", run.accel_noise_floor).c_str());
   }
   const char* gu = gyro_unit_name(o.gyro_unit);
   if (!run.has_gyro) {
@@ -787,7 +792,8 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
   if (truth.contains("magnetometer") && truth["magnetometer"].is_object()) {
     const Json& m = truth["magnetometer"];
     if (!run.mag.ok) {
-      std::fprintf(out, "  magnetometer: not calibrated\n");
+      std::fprintf(out, "  magnetometer: %s\n",
+                   run.has_mag ? "not calibrated" : "not in the input");
     } else {
       if (m.contains("hard_iron") && vec3(m["hard_iron"], t3))
         z3("magnetometer hard iron h", run.mag.hard_iron, t3, run.mag.hard_iron_sigma);
