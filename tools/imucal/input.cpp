@@ -460,7 +460,7 @@ bool SampleReader::read_header(Diagnostics& diag) {
           "t,ax,ay,az (an accelerometer alone) or t,mx,my,mz (a magnetometer alone); a pair of "
           "imu_tk files (t x y z): give the accelerometer file and the gyroscope file";
     } else if (fields_.size() == 3) {
-      msg += "ax,ay,az (one pose per line) or mx,my,mz with --rate HZ";
+      msg += "ax,ay,az (one pose per line; or --poses) or mx,my,mz (a magnetometer alone)";
     } else {
       msg += "t,ax,ay,az,gx,gy,gz";
     }
