@@ -3,12 +3,16 @@
 // the xsens recording through the command (float and double).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "cli.hpp"
@@ -724,12 +728,18 @@ TEST(CliStream, CountsSaturationAndRate) {
     return read_json(json);
   };
   std::string summary;
-  // Without the range, 65535 is a reading like any other.
+  // Without the range, the readings are uint16 counts: 65535 is their limit, saturated.
   Json r = run({}, summary);
-  EXPECT_NE(summary.find("calibrator counts: none"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("stream faults: accel saturated 5\n"), std::string::npos) << summary;
+  EXPECT_EQ(r["stream"]["accel_saturated"], 5);
+  EXPECT_EQ(r["configuration"]["accel_range_source"], "uint16");
+  // A range given wins: beyond the data, nothing is saturated.
+  r = run({"--accel-range", "-1,70000"}, summary);
+  EXPECT_NE(summary.find("stream faults: none"), std::string::npos) << summary;
   EXPECT_EQ(r["stream"]["accel_saturated"], 0);
   r = run({"--accel-range", "0,65535"}, summary);
-  EXPECT_NE(summary.find("calibrator counts: accel saturated 5\n"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("stream faults: accel saturated 5\n"), std::string::npos) << summary;
+  EXPECT_EQ(r["configuration"]["accel_range_source"], "given");
   EXPECT_EQ(r["stream"]["accel_saturated"], 5);
   EXPECT_EQ(r["stream"]["gyro_saturated"], 0);
   EXPECT_EQ(r["configuration"]["accel_range"], Json::array({0.0, 65535.0}));
@@ -1339,6 +1349,389 @@ TEST(CliInput, EmptyOrNanOptionalFieldsKeepTheLine) {
   EXPECT_NE(r.diag.kept()[0].message.find("for my, found 'abc'"), std::string::npos);
   EXPECT_EQ(r.diag.kept()[1].line, 7);
   EXPECT_NE(r.diag.kept()[1].message.find("temp is not finite"), std::string::npos);
+}
+
+// A CSV text with only the named columns (in that order), the lines where one of them is empty
+// or NaN dropped; the comments kept; without the header line if `header` is false.
+std::string keep_columns(const std::string& text, const std::vector<std::string>& names,
+                         bool header = true) {
+  std::stringstream in(text);
+  std::string line, out;
+  std::vector<std::size_t> index;
+  bool have_header = false;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') {
+      out += line + "\n";
+      continue;
+    }
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    if (line.back() == ',') f.push_back("");
+    if (!have_header) {
+      have_header = true;
+      for (const std::string& n : names)
+        for (std::size_t c = 0; c < f.size(); ++c)
+          if (f[c] == n) index.push_back(c);
+      if (header) {
+        std::string h;
+        for (const std::string& n : names) h += (h.empty() ? "" : ",") + n;
+        out += h + "\n";
+      }
+      continue;
+    }
+    std::string kept;
+    bool ok = true;
+    for (std::size_t c : index) {
+      const std::string& v = c < f.size() ? f[c] : std::string();
+      ok = ok && !v.empty() && v != "nan";
+      kept += (kept.empty() ? "" : ",") + v;
+    }
+    if (ok) out += kept + "\n";
+  }
+  return out;
+}
+
+// The magnetometer alone, with a t column or none at all: hard and soft iron within 3 sigma of
+// the truth, the parts said, exit 0; the same fit both ways (time does not enter it).
+TEST(CliAlone, MagnetometerAloneRecoversHardAndSoftIron) {
+  MagTempPlan plan;
+  plan.seed = 23;
+  plan.temp = false;
+  const MagTempRecording rec = make_mag_temp_recording(plan);
+  const std::string csv = temp_path("mag_alone.csv"), json = temp_path("mag_alone.json");
+  Json first;
+  for (int variant = 0; variant < 2; ++variant) {
+    if (variant == 0) {
+      write_file(csv, keep_columns(rec.text, {"t", "mx", "my", "mz"}));
+    } else {
+      write_file(csv, keep_columns(rec.text, {"mx", "my", "mz"}, false));
+    }
+    std::vector<std::string> args = {csv};
+    if (variant == 1) args.insert(args.end(), {"--columns", "mx,my,mz"});
+    const CommandRun r = run_calibrate(args, json);
+    ASSERT_EQ(r.code, 0) << r.out << r.err;
+    EXPECT_EQ(r.json["parts"]["accelerometer"], false);
+    EXPECT_EQ(r.json["parts"]["gyroscope"], false);
+    EXPECT_EQ(r.json["parts"]["magnetometer"], true);
+    EXPECT_EQ(r.json["parts"]["mode"], "magnetometer");
+    EXPECT_EQ(r.json["input"]["time"], variant == 0 ? "t column" : "none");
+    EXPECT_NE(r.out.find("parts    magnetometer\n"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("accelerometer  not in the input"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("quality  "), std::string::npos) << r.out;
+    const Json& m = r.json["magnetometer"];
+    ASSERT_TRUE(m["usable"].get<bool>()) << r.out;
+    static const char* const kAxes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a)
+      EXPECT_LE(std::abs(z_score(m["hard_iron"][kAxes[a]], rec.mag.h_true(a))), 3.0)
+          << "h " << a << " " << m["hard_iron"].dump();
+    static const char* const kSym[6] = {"S00", "S11", "S22", "S01", "S02", "S12"};
+    static const int kRow[6] = {0, 1, 2, 0, 0, 1}, kCol[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 6; ++k) {
+      const double v = soft_iron(m, kRow[k], kCol[k]);
+      const double sd = m["soft_iron_sigma_symmetric"][kSym[k]].get<double>();
+      EXPECT_LE(std::abs((v - rec.mag.S_true(kRow[k], kCol[k])) / sd), 3.0)
+          << kSym[k] << " " << v << " +- " << sd;
+    }
+    if (variant == 0)
+      first = m;
+    else
+      EXPECT_EQ(m["hard_iron"].dump(), first["hard_iron"].dump());
+  }
+  // The header holds the magnetometer only; the record too.
+  const std::string header = temp_path("mag_alone.h"), bin = temp_path("mag_alone.bin");
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(
+      calibrate_command(
+          {csv, "--columns", "mx,my,mz", "--quiet", "--header", header, "--record", bin}, false),
+      0);
+  testing::internal::GetCapturedStdout();
+  std::ifstream h(header);
+  std::stringstream hs;
+  hs << h.rdbuf();
+  EXPECT_NE(hs.str().find("IMUCAL_MAG_S"), std::string::npos);
+  EXPECT_EQ(hs.str().find("IMUCAL_ACCEL_M"), std::string::npos);
+  EXPECT_EQ(hs.str().find("IMUCAL_GYRO_M"), std::string::npos);
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(record_command({bin}), 0);
+  const std::string printed = testing::internal::GetCapturedStdout();
+  EXPECT_NE(printed.find("parts    magnetometer\n"), std::string::npos) << printed;
+  for (const std::string& f : {csv, json, header, bin}) std::remove(f.c_str());
+}
+
+// Whether the library's CalibratorSettings has has_gyro (an accelerometer stream alone).
+template <class S, class = void>
+struct HasGyroSetting : std::false_type {};
+template <class S>
+struct HasGyroSetting<S, std::void_t<decltype(std::declval<S&>().has_gyro)>> : std::true_type {};
+
+// The accelerometer alone: one pose mean per line (no time), and a stream (t, ax, ay, az). Each
+// parameter within 3 sigma of the truth (one of the 9 may fall in (3, 4]).
+TEST(CliAlone, AccelerometerAloneFromPosesAndFromAStream) {
+  const std::string csv = temp_path("acc_alone.csv"), truth = temp_path("acc_alone.truth.json"),
+                    poses = temp_path("acc_alone_poses.txt"), json = temp_path("acc_alone.json");
+  ASSERT_EQ(simulate_command({"--seed", "5", "--no-temp", "-o", csv, "--truth", truth}), 0);
+  const Json t = read_json(truth);
+  std::ifstream in(csv);
+  std::stringstream whole;
+  whole << in.rdbuf();
+  in.close();
+  auto check = [&](const Json& r, const std::string& what) {
+    int beyond3 = 0;
+    for (auto& [name, value] : t["accelerometer"]["parameters"].items()) {
+      const Json& p = r["accelerometer"]["parameters"][name];
+      ASSERT_TRUE(p.is_object()) << what << " " << name;
+      const double z = (p["value"].get<double>() - value.get<double>()) / p["sigma"].get<double>();
+      EXPECT_LE(std::abs(z), 4.0) << what << " " << name;
+      beyond3 += std::abs(z) > 3.0;
+    }
+    EXPECT_LE(beyond3, 1) << what;
+  };
+
+  // The pose file: each true rest's mean (its middle, 0.3 s from either end), one per line,
+  // without a header or time: read as ax ay az poses.
+  const std::string acc = keep_columns(whole.str(), {"t", "ax", "ay", "az"});
+  std::string settings, lines;
+  {
+    std::stringstream s(acc);
+    std::string line;
+    std::vector<std::array<double, 4>> rows;
+    while (std::getline(s, line)) {
+      if (line.rfind("# imucal:", 0) == 0) settings += line + "\n";
+      if (line.empty() || line[0] == '#' || line[0] == 't') continue;
+      std::array<double, 4> v{};
+      ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3]), 4);
+      rows.push_back(v);
+    }
+    for (const Json& rest : t["rests_s"]) {
+      double sum[3] = {0, 0, 0};
+      int n = 0;
+      for (const auto& v : rows) {
+        if (v[0] < rest[0].get<double>() + 0.3 || v[0] > rest[1].get<double>() - 0.3) continue;
+        for (int a = 0; a < 3; ++a) sum[a] += v[static_cast<std::size_t>(a + 1)];
+        ++n;
+      }
+      ASSERT_GT(n, 50);
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "%.5f %.5f %.5f\n", sum[0] / n, sum[1] / n, sum[2] / n);
+      lines += buf;
+    }
+  }
+  // With a header naming ax, ay, az and no time: read as poses.
+  write_file(poses, settings + "ax ay az\n" + lines);
+  CommandRun r = run_calibrate({poses}, json);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_EQ(r.json["parts"]["mode"], "poses");
+  EXPECT_EQ(r.json["parts"]["gyroscope"], false);
+  EXPECT_EQ(r.json["poses"].size(), t["rests_s"].size());
+  EXPECT_NE(r.out.find("gyroscope      not in the input"), std::string::npos) << r.out;
+  check(r.json, "poses");
+  // Without a header three numbers could be a magnetometer's (Magneto's files): --poses says
+  // which.
+  write_file(poses, settings + lines);
+  r = run_calibrate({poses}, json);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--columns ax,ay,az (one pose per line; or --poses)"), std::string::npos)
+      << r.err;
+  r = run_calibrate({poses, "--poses"}, json);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  check(r.json, "--poses");
+
+  // The stream: the accelerometer's columns alone.
+  if constexpr (!HasGyroSetting<CalibratorSettings<float>>::value) {
+    GTEST_SKIP() << "the library has no CalibratorSettings::has_gyro yet";
+  } else {
+    write_file(csv, acc);
+    r = run_calibrate({csv}, json);
+    ASSERT_EQ(r.code, 0) << r.out << r.err;
+    EXPECT_EQ(r.json["parts"]["mode"], "stream");
+    EXPECT_EQ(r.json["gyroscope"]["status"], "not in the input");
+    EXPECT_GE(r.json["poses"].size(), t["rests_s"].size() - 1);
+    check(r.json, "stream");
+  }
+  for (const std::string& f : {csv, truth, poses, json}) std::remove(f.c_str());
+}
+
+// Signed 16-bit counts with the gyro stuck at 32767 for five samples: counted as saturated
+// without --gyro-range (int16 inferred from the data), said in the summary and the JSON.
+TEST(CliStream, Int16LimitsAreSaturationWithoutFlags) {
+  const std::string csv = temp_path("int16.csv"), json = temp_path("int16.json");
+  ASSERT_EQ(simulate_command({"--seed", "9", "-o", csv}), 0);
+  std::ifstream in(csv);
+  std::stringstream out;
+  std::string line;
+  int data_line = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("# imucal:", 0) == 0) {
+      const std::size_t at = line.find("accel-zero=32768");
+      ASSERT_NE(at, std::string::npos) << line;
+      line.replace(at, 16, "accel-zero=0");
+    }
+    if (line.empty() || line[0] == '#' || line[0] == 't') {
+      out << line << "\n";
+      continue;
+    }
+    ++data_line;
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    ASSERT_GE(f.size(), 7u);
+    for (std::size_t c = 1; c <= 6; ++c) f[c] = std::to_string(std::stol(f[c]) - 32768);
+    if (data_line > 6000 && data_line <= 6005) f[4] = "32767";
+    line = f[0];
+    for (std::size_t c = 1; c < f.size(); ++c) line += "," + f[c];
+    out << line << "\n";
+  }
+  in.close();
+  write_file(csv, out.str());
+  const CommandRun r = run_calibrate({csv}, json);
+  ASSERT_NE(r.code, 2) << r.out << r.err;
+  EXPECT_EQ(r.json["stream"]["gyro_saturated"], 5) << r.out;
+  EXPECT_EQ(r.json["stream"]["accel_saturated"], 0);
+  EXPECT_EQ(r.json["configuration"]["gyro_range"], Json::array({-32768.0, 32767.0}));
+  EXPECT_EQ(r.json["configuration"]["gyro_range_source"], "int16");
+  EXPECT_EQ(r.json["configuration"]["accel_range_source"], "int16");
+  EXPECT_NE(r.out.find("gyro readings are int16 counts: at -32768 or 32767 taken as saturated"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("gyro saturated 5"), std::string::npos) << r.out;
+  for (const std::string& f : {csv, json}) std::remove(f.c_str());
+}
+
+// A refused calibration (9 rests, 10 poses needed) lists every rest, the last one (open when
+// the recording ended) included, and says why and what to do.
+TEST(CliAdvice, RefusedRunListsTheLastRestAndSaysWhatToDo) {
+  const std::string csv = temp_path("nine.csv"), truth = temp_path("nine.truth.json"),
+                    json = temp_path("nine.json");
+  ASSERT_EQ(simulate_command({"--seed", "2", "--poses", "8", "-o", csv, "--truth", truth}), 0);
+  const Json t = read_json(truth);
+  const CommandRun r = run_calibrate({csv}, json);
+  EXPECT_EQ(r.code, 1) << r.out;
+  const Json& rests = t["rests_s"];
+  ASSERT_EQ(rests.size(), 9u);
+  ASSERT_EQ(r.json["poses"].size(), rests.size()) << r.out;
+  const Json& last = r.json["poses"].back();
+  EXPECT_GE(last["t_begin_s"].get<double>(), rests.back()[0].get<double>() - 1e-6);
+  EXPECT_LE(last["t_end_s"].get<double>(), rests.back()[1].get<double>() + 1e-6);
+  char row[64];
+  std::snprintf(row, sizeof row, "    9  %9.2f .. %9.2f", last["t_begin_s"].get<double>(),
+                last["t_end_s"].get<double>());
+  EXPECT_NE(r.out.find(row), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("why, and what to do"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("9 poses found, at least 10 needed"), std::string::npos) << r.out;
+  ASSERT_FALSE(r.json["advice"].empty());
+  // No closed-form start is counted as "1 iterations".
+  EXPECT_EQ(r.out.find(" 1 iterations"), std::string::npos) << r.out;
+  for (const std::string& f : {csv, truth, json}) std::remove(f.c_str());
+}
+
+// The initial rest not found: the summary says so and what to do.
+TEST(CliAdvice, NoInitialRestSaysHoldStill) {
+  const std::string csv = temp_path("short_start.csv"), json = temp_path("short_start.json");
+  ASSERT_EQ(simulate_command({"--seed", "3", "--initial-rest", "3", "-o", csv}), 0);
+  const CommandRun r = run_calibrate({csv, "--initial-rest", "20"}, json);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(r.json["collection"]["poses"], 0);
+  EXPECT_NE(r.out.find("the initial rest was not found"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("give a shorter --initial-rest"), std::string::npos) << r.out;
+  for (const std::string& f : {csv, json}) std::remove(f.c_str());
+}
+
+// Headerless columns: six numbers per line are ax ay az gx gy gz, --columns names them in any
+// order (- skips one), and without a t column --rate gives the times; a gyroscope without
+// time is refused with the option to give.
+TEST(CliInput, HeaderlessColumnsAndRate) {
+  const std::string path = temp_path("headerless.txt"), json = temp_path("headerless.json");
+  Read r = read_texts({"1 2 3 4 5 6\n7 8 9 10 11 12\n"});
+  ASSERT_TRUE(r.opened) << messages(r.diag);
+  ASSERT_EQ(r.records.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.records[1].acc[0], 7);
+  EXPECT_DOUBLE_EQ(r.records[1].gyro[2], 12);
+  EXPECT_DOUBLE_EQ(r.records[1].t, 1.0);  // no rate: sample i at i s
+  {
+    SampleReader reader;
+    Diagnostics diag;
+    reader.set_columns("gx,gy,gz,-,ax,ay,az");
+    ASSERT_TRUE(reader.open_memory({"a header, ignored\n1 2 3 99 4 5 6\n1 2 3 99 4 5 7\n"},
+                                   Format::kCsv, diag))
+        << messages(diag);
+    reader.set_rate(50);
+    Record rec;
+    ASSERT_TRUE(reader.next(rec, diag));
+    ASSERT_TRUE(reader.next(rec, diag));
+    EXPECT_DOUBLE_EQ(rec.t, 0.02);
+    EXPECT_DOUBLE_EQ(rec.acc[2], 7);
+    EXPECT_DOUBLE_EQ(rec.gyro[0], 1);
+    EXPECT_EQ(reader.columns_source(), "--columns");
+    EXPECT_FALSE(reader.has_time());
+  }
+  r = read_texts({"1 2 3 4 5 6 7 8\n"});
+  EXPECT_FALSE(r.opened);
+  EXPECT_NE(messages(r.diag).find("give --columns NAMES"), std::string::npos) << messages(r.diag);
+  {
+    SampleReader reader;
+    Diagnostics diag;
+    reader.set_columns("ax,ay,az,bogus");
+    EXPECT_FALSE(reader.open_memory({"1 2 3 4\n"}, Format::kCsv, diag));
+    EXPECT_NE(messages(diag).find("unknown column name 'bogus'"), std::string::npos)
+        << messages(diag);
+  }
+  write_file(path, "1 2 3 4 5 6\n7 8 9 10 11 12\n");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({path, "--quiet"}, false), 2);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("no time column (t): give --rate HZ"), std::string::npos) << err;
+  for (const std::string& f : {path, json}) std::remove(f.c_str());
+}
+
+// The MPU-9150 recording as its authors wrote it (no header, no timestamps, ax ay az wx wy wz in
+// m/s^2 and rad/s at 100 Hz): read unedited with --rate, with and without --columns.
+TEST(CliMpu9150, HeaderlessRecordingIsReadWithRate) {
+#ifdef IMUCAL_MPU9150_DEFAULT_DIR
+  const char* built_in = IMUCAL_MPU9150_DEFAULT_DIR;
+#else
+  const char* built_in = "";
+#endif
+  std::string path;
+  const char* env = std::getenv("IMUCAL_MPU9150_DIR");
+  for (const char* dir : {env, built_in, static_cast<const char*>("../shared/data/mpu9150")}) {
+    if (dir == nullptr || *dir == '\0') continue;
+    if (std::ifstream(std::string(dir) + "/imu0.log").good()) {
+      path = std::string(dir) + "/imu0.log";
+      break;
+    }
+  }
+  if (path.empty()) GTEST_SKIP() << "mpu9150 recording not found (set IMUCAL_MPU9150_DIR)";
+  const std::string json = temp_path("imu0.json");
+  Json first;
+  for (int variant = 0; variant < 2; ++variant) {
+    std::vector<std::string> args = {path, "--rate", "100"};
+    if (variant == 1) args.insert(args.end(), {"--columns", "ax,ay,az,gx,gy,gz"});
+    const CommandRun r = run_calibrate(args, json);
+    ASSERT_NE(r.code, 2) << r.out << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_EQ(r.json["input"]["samples"], 15969);
+    EXPECT_EQ(r.json["input"]["lines_skipped"], 0);
+    EXPECT_NEAR(r.json["input"]["rate_hz"].get<double>(), 100.0, 1e-6);
+    EXPECT_NEAR(r.json["input"]["t_last_s"].get<double>(), 159.68, 1e-9);
+    EXPECT_EQ(r.json["input"]["time"], "--rate");
+    EXPECT_EQ(r.json["input"]["columns_source"], variant == 0 ? "assumed" : "--columns");
+    EXPECT_EQ(r.json["configuration"]["accel_range"], nullptr);  // SI units: no limits inferred
+    if (variant == 0) {
+      first = r.json;
+    } else {
+      EXPECT_EQ(r.json["poses"].dump(), first["poses"].dump());
+    }
+    // With the library's initial rest no longer than the recording's (about 7 s), the rests
+    // are the poses: 21-24 by the authors' protocol.
+    if (r.json["usable"].get<bool>()) {
+      EXPECT_GE(r.json["poses"].size(), 20u);
+      EXPECT_EQ(r.code, 0);
+    } else {
+      EXPECT_FALSE(r.json["advice"].empty()) << r.out;
+    }
+  }
+  std::remove(json.c_str());
 }
 
 }  // namespace

@@ -31,12 +31,11 @@ class ProgressLine {
  public:
   explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
   bool due(long samples) const { return enabled_ && (samples & 0xffff) == 0; }
-  void show(long samples, double fraction, int poses) {
+  void show(long samples, double fraction) {
     if (fraction > 0) {
-      std::fprintf(stderr, "\r  reading: %3.0f %%, %ld samples, %d poses", 100.0 * fraction,
-                   samples, poses);
+      std::fprintf(stderr, "\r  reading: %3.0f %%, %ld samples", 100.0 * fraction, samples);
     } else {
-      std::fprintf(stderr, "\r  reading: %ld samples, %d poses", samples, poses);
+      std::fprintf(stderr, "\r  reading: %ld samples", samples);
     }
     shown_ = true;
   }
@@ -217,11 +216,414 @@ void compensate(const std::vector<Sample>& raw, const TemperatureModel<Scalar>& 
   }
 }
 
+// The limits of the integer format that one sensor's readings fit: all integers within
+// [-32768, 32767] are int16 (a reading at -32768 or 32767 is clipped); within [0, 65535],
+// uint16. False if they fit neither (or there are none).
+bool integer_format(const std::vector<Sample>& samples, bool gyro, double& lo, double& hi,
+                    std::string& name) {
+  double least = HUGE_VAL, most = -HUGE_VAL;
+  for (const Sample& x : samples) {
+    const double* v = gyro ? x.gyro : x.acc;
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(v[a])) continue;
+      if (v[a] != std::floor(v[a])) return false;
+      least = std::min(least, v[a]);
+      most = std::max(most, v[a]);
+    }
+  }
+  if (least >= -32768 && most <= 32767) {
+    lo = -32768;
+    hi = 32767;
+    name = "int16";
+  } else if (least >= 0 && most <= 65535) {
+    lo = 0;
+    hi = 65535;
+    name = "uint16";
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// In counts without a range given, the readings at the limits of their integer format are
+// saturated (the ADC clipped): the range is inferred from the data.
+void infer_ranges(const std::vector<Sample>& samples, bool has_gyro, Options& o) {
+  if (o.accel_unit == AccelUnit::kCounts && !std::isfinite(o.accel_min))
+    if (!integer_format(samples, false, o.accel_min, o.accel_max, o.accel_range_inferred))
+      o.accel_min = o.accel_max = kNaN;
+  if (has_gyro && o.gyro_unit == GyroUnit::kCounts && !std::isfinite(o.gyro_min))
+    if (!integer_format(samples, true, o.gyro_min, o.gyro_max, o.gyro_range_inferred))
+      o.gyro_min = o.gyro_max = kNaN;
+}
+
+// CalibratorSettings::has_gyro (false: an accelerometer alone), where the library has it.
+template <class S>
+auto set_has_gyro(S& s, bool v, int) -> decltype(s.has_gyro = v, void()) {
+  s.has_gyro = v;
+}
+template <class S>
+void set_has_gyro(S&, bool, long) {}
+
+// A rest still open at the end of the recording becomes a pose when solve() ends the stream; a
+// refused solve (too few poses) leaves it open and the listing would miss the last rest. A
+// sample after a gap ends it as motion would (its last trim_seconds go), so every rest found is
+// listed. Only for the listing: the stream counts are taken before.
+template <typename Scalar, class Cal>
+void close_open_rest(Cal& cal, const Sample& last, double t0) {
+  const Phase phase = cal.progress().phase;
+  if (phase != Phase::kCollecting && phase != Phase::kReady) return;
+  Sample after = last;  // other readings than the last (the same ones would look frozen)
+  after.t += 10 * std::max(1.0, static_cast<double>(cal.settings().max_step_seconds));
+  for (int a = 0; a < 3; ++a) {
+    after.acc[a] = 0.5 * after.acc[a] + 0.25;
+    after.gyro[a] = 0.5 * after.gyro[a] + 0.25;
+  }
+  cal.add(imu_sample<Scalar>(after, t0));
+}
+
+const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+const char* const kAxisNamesXyz[3] = {"x", "y", "z"};
+
+std::string plural(long n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+// What to do next, in words: from the calibrator's progress before the solve (its hint, the
+// faces and axes still missing) and the counts after it.
+void advise(const Progress& before, const Progress& after, const Options& o, Run& run) {
+  std::vector<std::string>& a = run.advice;
+  char buf[400];
+  if (before.phase == Phase::kInitialRest) {
+    std::snprintf(buf, sizeof buf,
+                  "the initial rest was not found: the recording must start with %g s of "
+                  "stillness (--initial-rest; it restarts whenever the sensor moves). Hold the "
+                  "sensor still on a table at the start, or give a shorter --initial-rest.",
+                  o.initial_rest);
+    a.push_back(buf);
+    if (before.hint == Hint::kCheckSensor)
+      a.push_back(
+          "the sensor repeated the same reading (frozen) during the initial rest: check the "
+          "sensor and the logger.");
+    return;
+  }
+  if (before.hint == Hint::kCheckSensor)
+    a.push_back(
+        "the sensor froze or the stream had gaps when it ended: check the sensor and the logger "
+        "(the calibrator counts above say which).");
+  if (after.rests_too_short > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "%s shorter than --min-rest (%g s) did not count as poses: hold each "
+                  "orientation still for at least %g s.",
+                  plural(after.rests_too_short, "rest was", "rests were").c_str(), o.min_rest,
+                  o.min_rest);
+    a.push_back(buf);
+  }
+  if (after.poses < kAccelMinPoses) {
+    std::snprintf(buf, sizeof buf,
+                  "%s found, at least %d needed: hold more orientations, each still for a few "
+                  "seconds, turning between them.",
+                  plural(after.poses, "pose", "poses").c_str(), kAccelMinPoses);
+    a.push_back(buf);
+  }
+  if (after.faces_covered < 6) {
+    std::string missing;
+    for (int i = 0; i < 6; ++i)
+      if (((after.faces >> i) & 1) == 0)
+        missing += (missing.empty() ? "" : ", ") + std::string(kFaceNames[i]);
+    a.push_back("no pose had these faces up: " + missing +
+                ". Put each of them up and hold it still (the first: " +
+                kFaceNames[after.next_face] + ").");
+  }
+  if (run.has_gyro && after.poses >= kAccelMinPoses && after.axes_turned != 0x7) {
+    std::string missing;
+    for (int i = 0; i < 3; ++i)
+      if (((after.axes_turned >> i) & 1) == 0)
+        missing += (missing.empty() ? "" : " and ") + std::string(kAxisNamesXyz[i]);
+    a.push_back("the turns between poses went little about the body axis " + missing +
+                ": turn about it too, or the gyroscope's parameters for it stay weak.");
+  }
+  if (run.has_gyro && after.moves_dropped > 0)
+    a.push_back(plural(after.moves_dropped, "turn", "turns") +
+                " between poses could not be used for the gyroscope (across a gap in the "
+                "timestamps, a frozen or saturated sensor, a full pose store, or the end of the "
+                "recording while turning).");
+}
+
 template <typename Scalar>
-int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
+using MagCal = MagCalibrator<Scalar, 4, Calibrator<Scalar>::kMaxPoses>;
+
+template <typename Scalar>
+MagSettings<Scalar> mag_settings(const Options& o) {
+  MagSettings<Scalar> ms;
+  ms.unit_ut = static_cast<Scalar>(mag_unit_ut(o));
+  ms.field_min_ut = static_cast<Scalar>(o.mag_field_min);
+  ms.field_max_ut = static_cast<Scalar>(o.mag_field_max);
+  ms.min_coverage = static_cast<Scalar>(o.mag_min_coverage);
+  return ms;
+}
+
+// Magnetometer: the fit of the samples held, then (with an accelerometer calibration) the
+// rotation into the accelerometer's frame from the poses (mean field over each pose's window
+// with the pose's mean acceleration). `accel` null: no accelerometer calibration.
+template <typename Scalar>
+void finish_magnetometer(MagCal<Scalar>& mag, const Options& o, const std::vector<Sample>& samples,
+                         const std::vector<std::size_t>& first_sample,
+                         const std::vector<std::size_t>& last_sample,
+                         const AccelCalibration<Scalar>* accel, Run& run,
+                         MagCalibration<Scalar>& mc) {
+  MagResult& m = run.mag;
+  m.present = run.has_mag;
+  m.unit_ut = mag_unit_ut(o);
+  if (!m.present) {
+    m.status = "no magnetometer columns (mx, my, mz)";
+  } else if (m.readings == 0) {
+    m.status = "no magnetometer readings";
+  } else {
+    for (std::size_t k = 0; k < first_sample.size(); ++k) {
+      Vector3<double> sum = Vector3<double>::Zero();
+      long n = 0;
+      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
+        const Sample& sm = samples[i];
+        if (!std::isfinite(sm.mag[0])) continue;
+        sum += Vector3<double>(sm.mag[0], sm.mag[1], sm.mag[2]);
+        ++n;
+      }
+      if (n == 0) continue;
+      const Vector3<double> mean_mag = sum / static_cast<double>(n);
+      const Vector3<double> mean_acc(run.pose_list[k].mean[0], run.pose_list[k].mean[1],
+                                     run.pose_list[k].mean[2]);
+      mag.add_rest(mean_mag.cast<Scalar>(), mean_acc.cast<Scalar>());
+    }
+    const Status ms_status = mag.solve(mc);
+    m.status = to_string(ms_status);
+    m.ok = succeeded(ms_status);
+    if (!m.ok) {
+      m.alignment_status = "no usable magnetometer fit";
+    } else if (!o.mag_align) {
+      m.alignment_status = "not asked (--no-mag-align)";
+    } else if (!run.has_accel) {
+      m.alignment_status = "no accelerometer in the input";
+    } else if (accel == nullptr) {
+      m.alignment_status = "no accelerometer calibration";
+    } else {
+      m.aligned = succeeded(mag.align(*accel, mc));
+      m.alignment_status = to_string(mc.alignment_status);
+    }
+    for (int i = 0; i < 3; ++i) {
+      for (int k = 0; k < 3; ++k) m.soft_iron[i][k] = static_cast<double>(mc.soft_iron(i, k));
+      m.hard_iron[i] = static_cast<double>(mc.hard_iron(i));
+      m.hard_iron_sigma[i] = static_cast<double>(mc.hard_iron_sigma(i));
+      m.rotation[i] = static_cast<double>(mc.alignment_rotation(i));
+      m.rotation_sigma[i] = static_cast<double>(mc.alignment_sigma(i));
+    }
+    for (int k = 0; k < kMagSymEntries; ++k)
+      m.soft_iron_sigma[k] = static_cast<double>(mc.soft_iron_sigma(k));
+    m.field_ut = static_cast<double>(mc.field_ut);
+    m.fit_error_pct = static_cast<double>(mc.fit_error_pct);
+    m.coverage = static_cast<double>(mc.coverage);
+    m.samples = mc.samples;
+    m.iterations = mc.iterations;
+    m.quality = quality_name(mc.quality);
+    m.rests = mag.rests();
+    if (m.aligned) {
+      m.dip_deg = static_cast<double>(mc.dip_deg);
+      m.dip_sigma_deg = static_cast<double>(mc.dip_sigma_deg);
+      m.rests = mc.alignment_rests;
+    }
+  }
+  for (int i = 0; i < mag.size(); ++i) {
+    const Vector3<Scalar>& h = mag.sample(i);
+    m.held.push_back(
+        {static_cast<double>(h(0)), static_cast<double>(h(1)), static_cast<double>(h(2))});
+  }
+}
+
+// The record of the parts that are usable, if asked for (else why not).
+template <typename Scalar>
+void make_run_record(const Calibration<Scalar>& c, const MagCalibration<Scalar>* mc,
+                     const TemperatureModel<Scalar>* tm, const Options& o, Run& run) {
+  if (o.record_path.empty() || !run.usable) return;
+  CalibrationRecord record;
+  std::uint8_t bytes[kRecordMaxBytes];
+  std::size_t size = 0;
+  Status st = make_record(c, o.device_id, o.sensor_id, record, mc, tm);
+  if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
+  if (st == Status::kOk) {
+    run.record.assign(bytes, bytes + size);
+  } else {
+    run.record_error = to_string(st);
+  }
+}
+
+// A magnetometer alone (t, mx, my, mz, or no t): its fit, no alignment.
+template <typename Scalar>
+int magnetometer_alone(const Options& o, const std::vector<Sample>& samples, Run& run) {
+  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
+  for (const Sample& x : samples)
+    if (std::isfinite(x.mag[0]))
+      mag->add(Vector3<Scalar>(static_cast<Scalar>(x.mag[0]), static_cast<Scalar>(x.mag[1]),
+                               static_cast<Scalar>(x.mag[2])));
+  MagCalibration<Scalar> mc;
+  finish_magnetometer<Scalar>(*mag, o, samples, {}, {}, nullptr, run, mc);
+  run.accel_status = run.gyro_status = "not in the input";
+  run.temperature.present = false;
+  run.temperature.status = "needs the accelerometer and the gyroscope";
+  run.temperature.accel.status = run.temperature.gyro.status = run.temperature.status;
+  run.quality = run.mag.ok ? run.mag.quality : "none";
+  run.quality_level = run.mag.ok ? static_cast<int>(mc.quality) : 0;
+  run.usable = run.mag.ok;
+  if (!run.mag.ok) {
+    if (run.mag.status == to_string(Status::kPoorCoverage))
+      run.advice.push_back(
+          "the readings cover too few directions: turn the sensor slowly through every "
+          "orientation (all of the sphere, not one plane), away from iron and motors.");
+    else if (run.mag.status == to_string(Status::kFieldImplausible))
+      run.advice.push_back(
+          "the field strength is outside --mag-field-range: check --mag-unit (and "
+          "--mag-lsb-per-ut), or keep the sensor away from magnets and iron.");
+    else if (run.mag.status == to_string(Status::kTooFewSamples))
+      run.advice.push_back(
+          "too few readings: record longer while turning the sensor through every orientation.");
+    else
+      run.advice.push_back("the magnetometer was not calibrated: " + run.mag.status + ".");
+  }
+  Calibration<Scalar> none;
+  make_run_record<Scalar>(none, run.mag.ok ? &mc : nullptr, nullptr, o, run);
+  return run.usable ? 0 : 1;
+}
+
+// One line per pose: each sample is a pose's mean reading (an accelerometer alone, no time).
+// The accelerometer solve directly, with equal weights.
+template <typename Scalar>
+int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
+  run.has_gyro = false;
+  run.mag.status = "no magnetometer columns (mx, my, mz)";
+  std::vector<Pose<Scalar>> poses;
+  for (const Sample& x : samples)
+    poses.push_back({Vector3<Scalar>(static_cast<Scalar>(x.acc[0]), static_cast<Scalar>(x.acc[1]),
+                                     static_cast<Scalar>(x.acc[2])),
+                     1u});
+  AccelSettings<Scalar> as;
+  as.gravity = static_cast<Scalar>(o.gravity);
+  Calibration<Scalar> c;
+  const Status st = calibrate_accelerometer<Scalar>(
+      PoseSpan<Scalar>{poses.data(), static_cast<int>(poses.size())}, as, c.accel);
+  run.poses = static_cast<int>(poses.size());
+  run.accel_status = to_string(st);
+  run.accel_ok = succeeded(st);
+  run.accel_iterations = c.accel.iterations;
+  run.gyro_status = "not in the input";
+  run.temperature.status = "needs the accelerometer and the gyroscope streams";
+  run.temperature.accel.status = run.temperature.gyro.status = run.temperature.status;
+  for (int k = 0; k < 9; ++k) {
+    run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));
+    run.accel_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.sigma(k));
+  }
+  const double sa = accel_nominal_scale(o), zero = accel_nominal_zero(o);
+  run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);
+  for (int a = 0; a < 3; ++a) {
+    run.accel_nominal[static_cast<std::size_t>(3 + a)] = sa;
+    run.accel_nominal[static_cast<std::size_t>(6 + a)] = -zero;
+  }
+  const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
+  const AccelVector<double> pn = Eigen::Map<const AccelVector<double>>(run.accel_nominal.data());
+  std::vector<double> before, after;
+  std::uint8_t faces = 0;
+  for (const Sample& x : samples) {
+    PoseResult pr;
+    pr.t_begin = pr.t_end = x.t;
+    pr.samples = 1;
+    const Vector3<double> mean(x.acc[0], x.acc[1], x.acc[2]);
+    for (int a = 0; a < 3; ++a) pr.mean[a] = mean(a);
+    if (run.accel_ok) {
+      const Vector3<double> cal_mean = accel_apply(pa, mean);
+      pr.residual_after = o.gravity - cal_mean.norm();
+      const Vector3<double> up = cal_mean.normalized();
+      for (int a = 0; a < 3; ++a) {
+        pr.up[a] = up(a);
+        if (std::abs(up(a)) > 0.9)  // within about 25 deg of a face
+          faces = static_cast<std::uint8_t>(faces | (1u << (2 * a + (up(a) < 0 ? 1 : 0))));
+      }
+    }
+    if (run.have_nominal_accel) pr.residual_before = o.gravity - accel_apply(pn, mean).norm();
+    before.push_back(pr.residual_before);
+    after.push_back(pr.residual_after);
+    run.pose_list.push_back(pr);
+  }
+  run.accel_pose_rms_before = rms(before);
+  run.accel_pose_rms_after = rms(after);
+  run.faces = faces;
+  for (int i = 0; i < 6; ++i) run.faces_covered += (faces >> i) & 1;
+  // Quality: good with every face up in some pose, fair otherwise (the stream's noise test
+  // needs the samples of each rest, which a file of means does not hold).
+  c.quality = !run.accel_ok ? Quality::kNone : faces == 0x3f ? Quality::kGood : Quality::kFair;
+  run.quality = quality_name(c.quality);
+  run.quality_level = static_cast<int>(c.quality);
+  run.usable = run.accel_ok;
+  if (!run.accel_ok) {
+    if (run.poses < kAccelMinPoses) {
+      run.advice.push_back(plural(run.poses, "pose", "poses") + " in the file, at least " +
+                           std::to_string(kAccelMinPoses) +
+                           " needed: measure more orientations (all six faces up, and some "
+                           "tilted between them).");
+    } else {
+      run.advice.push_back(
+          "the poses do not determine the 9 parameters (" + run.accel_status +
+          "): add orientations with each face up and some tilted between two faces.");
+    }
+  }
+  make_run_record<Scalar>(c, nullptr, nullptr, o, run);
+  return run.usable ? 0 : 1;
+}
+
+template <typename Scalar>
+int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
                     std::vector<Sample>& samples) {
   using Cal = Calibrator<Scalar>;
+  run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
+  run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
+  run.has_accel = reader.format() == Format::kImuTk || reader.has_accelerometer();
+  run.has_gyro = reader.format() == Format::kImuTk || reader.has_gyroscope();
+  run.has_mag = reader.has_magnetometer();
+  run.mode = !run.has_accel ? "magnetometer" : o.pose_file ? "poses" : "stream";
+  run.columns = reader.format() == Format::kImuTk ? "t x y z (two files)" : reader.column_names();
+  run.columns_source = reader.format() == Format::kImuTk ? "imu_tk" : reader.columns_source();
+  run.time_source = reader.format() == Format::kImuTk || reader.has_time() ? "t column"
+                    : o.nominal_rate_hz > 0                                ? "--rate"
+                                                                           : "none";
+
+  // The whole recording first (the saturation limits are inferred from all of it), then the
+  // calibrator over it, sample by sample as on the device.
+  ProgressLine progress(!o.quiet);
+  Record r;
+  while (reader.next(r, diag)) {
+    samples.push_back({r.t,
+                       {r.acc[0], r.acc[1], r.acc[2]},
+                       {r.gyro[0], r.gyro[1], r.gyro[2]},
+                       r.temp,
+                       {r.mag[0], r.mag[1], r.mag[2]}});
+    if (!run.has_gyro)  // an accelerometer alone: the calibrator ignores the gyro readings
+      for (double& g : samples.back().gyro) g = 0;
+    if (std::isfinite(r.mag[0])) ++run.mag.readings;  // the reader gives all three axes or none
+    const auto n = static_cast<long>(samples.size());
+    if (progress.due(n)) progress.show(n, reader.fraction_read());
+  }
+  run.samples = static_cast<long>(samples.size());
+  run.lines_skipped = reader.lines_skipped();
+  if (samples.empty()) {
+    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
+    return 2;
+  }
+  run.t_first = samples.front().t;
+  run.t_last = samples.back().t;
+  if (samples.size() > 1 && run.time_source != "none")
+    run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
+  if (run.has_accel) infer_ranges(samples, run.has_gyro, o);
+  if (run.mode == "magnetometer") return magnetometer_alone<Scalar>(o, samples, run);
+  if (run.mode == "poses") return pose_file<Scalar>(o, samples, run);
+
   CalibratorSettings<Scalar> cs;
+  set_has_gyro(cs, run.has_gyro, 0);
   cs.initial_rest_seconds = static_cast<Scalar>(o.initial_rest);
   cs.min_rest_seconds = static_cast<Scalar>(o.min_rest);
   cs.accel.gravity = static_cast<Scalar>(o.gravity);
@@ -235,69 +637,44 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     cs.gyro_min = static_cast<Scalar>(o.gyro_min);
     cs.gyro_max = static_cast<Scalar>(o.gyro_max);
   }
-  cs.nominal_rate_hz = static_cast<Scalar>(o.nominal_rate_hz);
+  // Without a time column the times come from the rate: nothing to check against it.
+  if (run.time_source == "t column") cs.nominal_rate_hz = static_cast<Scalar>(o.nominal_rate_hz);
   const double zero = accel_nominal_zero(o);
   if (std::isfinite(zero))
     cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
   auto cal = std::make_unique<Cal>(cs);  // 32 KB (float): on the heap of the host tool
   // The magnetometer's collector (one rest per pose for the alignment) and the rests for the
   // temperature model, one per pose as the calibrator hands them out.
-  using MagCal = MagCalibrator<Scalar, 4, Cal::kMaxPoses>;
-  MagSettings<Scalar> ms;
-  ms.unit_ut = static_cast<Scalar>(mag_unit_ut(o));
-  ms.field_min_ut = static_cast<Scalar>(o.mag_field_min);
-  ms.field_max_ut = static_cast<Scalar>(o.mag_field_max);
-  ms.min_coverage = static_cast<Scalar>(o.mag_min_coverage);
-  auto mag = std::make_unique<MagCal>(ms);
+  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
   std::vector<RestSummary<Scalar>> rests;
   auto keep_rests = [&] {
     while (static_cast<int>(rests.size()) < cal->poses().size) rests.push_back(cal->last_rest());
   };
 
-  run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
-  run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
   std::map<std::string, StreamEvent> events;
-  ProgressLine progress(!o.quiet);
-  Record r;
-  double t0 = 0;
-  while (reader.next(r, diag)) {
-    if (samples.empty()) t0 = r.t;
-    samples.push_back({r.t,
-                       {r.acc[0], r.acc[1], r.acc[2]},
-                       {r.gyro[0], r.gyro[1], r.gyro[2]},
-                       r.temp,
-                       {r.mag[0], r.mag[1], r.mag[2]}});
-    const ImuSample<Scalar> s = imu_sample<Scalar>(samples.back(), t0);
-    if (std::isfinite(r.mag[0])) {  // the reader gives all three axes or none
-      mag->add(Vector3<Scalar>(static_cast<Scalar>(r.mag[0]), static_cast<Scalar>(r.mag[1]),
-                               static_cast<Scalar>(r.mag[2])));
-      ++run.mag.readings;
-    }
-    const Status st = cal->add(s);
+  const double t0 = samples.front().t;
+  for (const Sample& x : samples) {
+    if (std::isfinite(x.mag[0]))
+      mag->add(Vector3<Scalar>(static_cast<Scalar>(x.mag[0]), static_cast<Scalar>(x.mag[1]),
+                               static_cast<Scalar>(x.mag[2])));
+    const Status st = cal->add(imu_sample<Scalar>(x, t0));
     keep_rests();
     if (st != Status::kOk) {
       StreamEvent& e = events[to_string(st)];
-      if (e.count++ == 0) e.first_t = r.t;
+      if (e.count++ == 0) e.first_t = x.t;
       e.status = to_string(st);
     }
-    const auto n = static_cast<long>(samples.size());
-    if (progress.due(n)) progress.show(n, reader.fraction_read(), cal->progress().poses);
   }
   for (auto& kv : events) run.events.push_back(kv.second);
-  run.samples = static_cast<long>(samples.size());
-  run.lines_skipped = reader.lines_skipped();
-  if (samples.empty()) {
-    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
-    return 2;
-  }
-  run.t_first = samples.front().t;
-  run.t_last = samples.back().t;
-  if (samples.size() > 1)
-    run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
 
+  const Progress before_solve = cal->progress();
   Status solved = cal->solve_all();
   keep_rests();                                    // the rest open at the end became a pose
   const StreamCounts sc = cal->progress().stream;  // of the readings as read
+  if (solved == Status::kTooFewPoses) {
+    close_open_rest<Scalar>(*cal, samples.back(), t0);
+    keep_rests();
+  }
 
   // Temperature: the biases against the rests' temperatures, about this calibration. With a
   // usable part, the calibration runs again over the readings with the model applied (else it
@@ -395,7 +772,17 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
   run.gyro_bias_refined = c.gyro.bias_refined;
   run.quality = quality_name(c.quality);
   run.quality_level = static_cast<int>(c.quality);
-  run.usable = run.accel_ok && run.gyro_ok;
+  if (!run.has_gyro) run.gyro_status = "not in the input";
+  run.usable = run.accel_ok && (run.gyro_ok || !run.has_gyro);
+  advise(before_solve, p, o, run);
+  if (!run.accel_ok && run.poses >= kAccelMinPoses)
+    run.advice.push_back("the accelerometer was not calibrated (" + run.accel_status +
+                         "): the poses do not determine its 9 parameters; add orientations "
+                         "with each face up and some tilted between two faces.");
+  else if (run.accel_ok && run.has_gyro && !run.gyro_ok)
+    run.advice.push_back("the gyroscope was not calibrated (" + run.gyro_status +
+                         "): turn between the poses about all three body axes, and do not stop "
+                         "the recording while turning.");
   for (int k = 0; k < 9; ++k) {
     run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));
     run.accel_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.sigma(k));
@@ -481,7 +868,7 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
 
   // Moves: the angle between carried and measured gravity, nominal and calibrated gyro model
   // (gravity directions from the calibrated accelerometer in both).
-  if (run.accel_ok) {
+  if (run.accel_ok && run.has_gyro) {
     const Vector3<double> b0 = cal->gyro_bias0().template cast<double>();
     const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
     const GyroVector<double> pgn = Eigen::Map<const GyroVector<double>>(run.gyro_nominal.data());
@@ -509,72 +896,10 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     run.gyro_rms_after = rms(after);
   }
 
-  // Magnetometer: the fit of the samples held, then the rotation into the accelerometer's frame
-  // from the poses (mean field over each pose's window with the pose's mean acceleration).
   MagCalibration<Scalar> mc;
   MagResult& m = run.mag;
-  m.present = reader.has_magnetometer();
-  m.unit_ut = mag_unit_ut(o);
-  if (!m.present) {
-    m.status = "no magnetometer columns (mx, my, mz)";
-  } else if (m.readings == 0) {
-    m.status = "no magnetometer readings";
-  } else {
-    for (std::size_t k = 0; k < first_sample.size(); ++k) {
-      Vector3<double> sum = Vector3<double>::Zero();
-      long n = 0;
-      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
-        const Sample& sm = samples[i];
-        if (!std::isfinite(sm.mag[0])) continue;
-        sum += Vector3<double>(sm.mag[0], sm.mag[1], sm.mag[2]);
-        ++n;
-      }
-      if (n == 0) continue;
-      const Vector3<double> mean_mag = sum / static_cast<double>(n);
-      const Vector3<double> mean_acc(run.pose_list[k].mean[0], run.pose_list[k].mean[1],
-                                     run.pose_list[k].mean[2]);
-      mag->add_rest(mean_mag.cast<Scalar>(), mean_acc.cast<Scalar>());
-    }
-    const Status ms_status = mag->solve(mc);
-    m.status = to_string(ms_status);
-    m.ok = succeeded(ms_status);
-    if (!m.ok) {
-      m.alignment_status = "no usable magnetometer fit";
-    } else if (!o.mag_align) {
-      m.alignment_status = "not asked (--no-mag-align)";
-    } else if (!run.accel_ok) {
-      m.alignment_status = "no accelerometer calibration";
-    } else {
-      m.aligned = succeeded(mag->align(c.accel, mc));
-      m.alignment_status = to_string(mc.alignment_status);
-    }
-    for (int i = 0; i < 3; ++i) {
-      for (int k = 0; k < 3; ++k) m.soft_iron[i][k] = static_cast<double>(mc.soft_iron(i, k));
-      m.hard_iron[i] = static_cast<double>(mc.hard_iron(i));
-      m.hard_iron_sigma[i] = static_cast<double>(mc.hard_iron_sigma(i));
-      m.rotation[i] = static_cast<double>(mc.alignment_rotation(i));
-      m.rotation_sigma[i] = static_cast<double>(mc.alignment_sigma(i));
-    }
-    for (int k = 0; k < kMagSymEntries; ++k)
-      m.soft_iron_sigma[k] = static_cast<double>(mc.soft_iron_sigma(k));
-    m.field_ut = static_cast<double>(mc.field_ut);
-    m.fit_error_pct = static_cast<double>(mc.fit_error_pct);
-    m.coverage = static_cast<double>(mc.coverage);
-    m.samples = mc.samples;
-    m.iterations = mc.iterations;
-    m.quality = quality_name(mc.quality);
-    m.rests = mag->rests();
-    if (m.aligned) {
-      m.dip_deg = static_cast<double>(mc.dip_deg);
-      m.dip_sigma_deg = static_cast<double>(mc.dip_sigma_deg);
-      m.rests = mc.alignment_rests;
-    }
-  }
-  for (int i = 0; i < mag->size(); ++i) {
-    const Vector3<Scalar>& h = mag->sample(i);
-    m.held.push_back(
-        {static_cast<double>(h(0)), static_cast<double>(h(1)), static_cast<double>(h(2))});
-  }
+  finish_magnetometer<Scalar>(*mag, o, samples, first_sample, last_sample,
+                              run.accel_ok ? &c.accel : nullptr, run, mc);
 
   // The temperature model as fitted above; the rests as raw means (the plots' points).
   for (const RestSummary<Scalar>& rs : rests) {
@@ -592,6 +917,8 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
     tr.status = "no temperature column";
   } else if (!c.has_temperature) {
     tr.status = "no temperature readings";
+  } else if (!run.has_gyro) {
+    tr.status = "needs the gyroscope too (not in the input)";
   } else if (!run.usable) {
     tr.status = "needs a usable accelerometer and gyroscope calibration";
   } else if (!have_tm) {
@@ -623,19 +950,7 @@ int run_calibration(const Options& o, SampleReader& reader, Diagnostics& diag, R
 
   // The record the device would store: from the calibration itself (float, as on the device),
   // with the magnetometer and the temperature model where usable (make_record leaves the rest).
-  if (!o.record_path.empty() && run.usable) {
-    CalibrationRecord record;
-    std::uint8_t bytes[kRecordMaxBytes];
-    std::size_t size = 0;
-    Status st = make_record(c, o.device_id, o.sensor_id, record, m.ok ? &mc : nullptr,
-                            have_tm ? &tm : nullptr);
-    if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
-    if (st == Status::kOk) {
-      run.record.assign(bytes, bytes + size);
-    } else {
-      run.record_error = to_string(st);
-    }
-  }
+  make_run_record<Scalar>(c, m.ok ? &mc : nullptr, have_tm ? &tm : nullptr, o, run);
   return run.usable ? 0 : 1;
 }
 
@@ -670,6 +985,8 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   }
   Diagnostics diag;
   SampleReader reader;
+  reader.set_columns(o.columns);
+  if (o.pose_file) reader.set_headerless_columns("ax,ay,az");
   if (!reader.open(o.files, o.format, diag)) {
     print_diagnostics(diag);
     return 2;
@@ -695,6 +1012,26 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
       !std::isfinite(o.accel_zero))
     o.accel_zero = 0;  // signed counts unless a zero was given
   reader.set_time_unit(o.time_unit);
+  reader.set_rate(o.nominal_rate_hz);
+  // An accelerometer alone without time is a file of pose means (one line each).
+  const bool csv = reader.format() == Format::kCsv;
+  const bool accel_alone =
+      csv && reader.has_accelerometer() && !reader.has_gyroscope() && !reader.has_magnetometer();
+  if (accel_alone && !reader.has_time() && !(o.nominal_rate_hz > 0)) o.pose_file = true;
+  if (o.pose_file && !accel_alone) {
+    std::fprintf(stderr,
+                 "imucal: --poses reads one pose mean per line of an accelerometer alone (columns "
+                 "ax, ay, az; found %s)\n",
+                 reader.column_names().c_str());
+    return 2;
+  }
+  if (csv && reader.has_gyroscope() && !reader.has_time() && !(o.nominal_rate_hz > 0)) {
+    std::fprintf(stderr,
+                 "imucal: %s has no time column (t): give --rate HZ (sample i is then at i/HZ s), "
+                 "or name a t column with --columns\n",
+                 o.files[0].c_str());
+    return 2;
+  }
 
   Run run;
   std::vector<Sample> samples;

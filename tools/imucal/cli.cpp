@@ -25,6 +25,14 @@ Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, g
 temp, mx, my, mz; any order). The optional fields may be empty or NaN where the sensor gave no
 reading (a magnetometer slower than the IMU). Lines starting with # are comments;
 `# imucal: key=value ...` in a comment sets the data options below (the command line wins).
+Each sensor may come alone, and each calibrates what it holds (exit 0 when that is usable):
+  t, mx, my, mz (or no t)   the magnetometer alone (hard and soft iron)
+  t, ax, ay, az             an accelerometer stream alone (rests found from it alone)
+  ax, ay, az and no time    one pose mean per line (no t and no --rate, or --poses): the
+                            accelerometer solved from the poses directly, equal weights
+A file without a header: --columns names its columns; six numeric columns without it are
+taken as ax ay az gx gy gz (three, with --poses, as ax ay az). Without a t column, --rate
+gives sample i the time i/rate (needed with a gyroscope).
 
 Options (calibrate, report):
   --format auto|csv|imutk         auto: two files are imu_tk, one is CSV
@@ -38,9 +46,20 @@ Options (calibrate, report):
   --initial-rest S                the still start used for the gyro bias and noise (default 10)
   --min-rest S                    shorter rests are not poses (default 1)
   --accel-range LO,HI             the accelerometer's full scale, raw units (e.g. 0,65535): a
-                                  reading at or beyond it is saturated (counted, taken as motion)
-  --gyro-range LO,HI              the gyroscope's (a saturated sample is counted and refused)
-  --rate HZ                       the configured sample rate: seconds far from it are counted
+                                  reading at or beyond it is saturated (counted, taken as motion).
+                                  In counts without it: readings all integers in -32768..32767
+                                  are int16 and those in 0..65535 uint16, and a reading at the
+                                  format's limits is saturated (the summary says so)
+  --gyro-range LO,HI              the gyroscope's (a saturated sample is counted and refused;
+                                  inferred in counts as for the accelerometer)
+  --rate HZ                       the configured sample rate: with a t column, seconds far from
+                                  it are counted; without one, sample i is at i/HZ s
+  --columns NAMES                 the columns of a file, in order, comma-separated: t, ax, ay,
+                                  az, gx, gy, gz (or wx, wy, wz), temp, mx, my, mz; - or _ skips
+                                  one (e.g. --columns ax,ay,az,gx,gy,gz); wins over a header line
+                                  (then skipped)
+  --poses                         the file holds one pose mean per line (ax ay az): the
+                                  accelerometer alone, solved from the poses
   --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
   --double                        run the double-precision reference instead of float
 
@@ -72,9 +91,11 @@ Outputs:
   --svg FILE, -o FILE             the SVG report page (report needs it; calibrate may write it)
   --quiet                         no progress display on the terminal
 
-The header and the record are written only for a usable calibration.
-Exit code: 0 a usable calibration (accelerometer and gyroscope), 1 none (the summary says
-why), 2 bad usage or input.
+The summary lists every rest found (each a pose), explains its counts, and, when the
+calibration is refused or weak, says why and what to do next.
+The header and the record are written only for a usable calibration, with the parts present.
+Exit code: 0 a usable calibration of what the input holds (accelerometer and gyroscope; the
+accelerometer or the magnetometer alone), 1 none (the summary says why), 2 bad usage or input.
 `imucal record`: 0 a valid record, 1 not valid, 2 bad usage or an unreadable file.
 )";
 

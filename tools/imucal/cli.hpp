@@ -3,8 +3,9 @@
 //   imucal report -o PAGE.svg [options] FILE...   the same, plus the picture page
 //   imucal simulate -o FILE [--truth FILE] [--seed N] ...   a recording with known truth
 //   imucal record FILE   a device calibration record (calibrate --record), decoded and printed
-// Exit codes: 0 a usable calibration (both sensors) or a command done; 1 the recording did not
-// give a usable calibration, or the record is not valid; 2 a usage error or an unreadable input.
+// Exit codes: 0 a usable calibration (of the sensors the input holds) or a command done; 1 the
+// recording did not give a usable calibration, or the record is not valid; 2 a usage error or an
+// unreadable input.
 #pragma once
 
 #include <string>

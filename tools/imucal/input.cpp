@@ -8,6 +8,8 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <tuple>
+#include <utility>
 
 namespace imucal::cli {
 
@@ -337,6 +339,79 @@ bool SampleReader::start(Format format, Diagnostics& diag) {
   return true;
 }
 
+// Names the columns (lower-case names in file order). strict: an unknown name is an error (the
+// user's --columns), else ignored (a header's extra columns). False (reported) if a name is
+// repeated, a sensor has some but not all of its axes, or neither the accelerometer nor the
+// magnetometer is there.
+bool SampleReader::name_columns(const std::vector<std::string>& names, bool strict,
+                                Diagnostics& diag) {
+  LineReader& in = in_[0];
+  columns_ = names.size();
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    const std::string& name = names[c];
+    const int ci = static_cast<int>(c);
+    int* slot = nullptr;
+    if (name == "t" || name == "time") slot = &col_t_;
+    if (name == "temp" || name == "temperature") slot = &col_temp_;
+    for (int a = 0; a < 3; ++a) {
+      if (name == std::string("a") + kAxisNames[a]) slot = &col_acc_[a];
+      if (name == std::string("g") + kAxisNames[a] || name == std::string("w") + kAxisNames[a])
+        slot = &col_gyro_[a];
+      if (name == std::string("m") + kAxisNames[a]) slot = &col_mag_[a];
+    }
+    if (slot == nullptr) {
+      if (strict && name != "-" && name != "_") {
+        report(in, 0,
+               "--columns: unknown column name " + quoted(name) +
+                   " (known: t, ax, ay, az, gx, gy, gz, temp, mx, my, mz; - or _ skips a column)",
+               diag);
+        return false;
+      }
+      continue;  // unknown columns are ignored
+    }
+    if (*slot >= 0) {
+      report(in, 0, "column " + quoted(name) + " named twice", diag);
+      return false;
+    }
+    *slot = ci;
+  }
+  // A sensor is all three axes or none.
+  for (const auto& [cols, prefix, what] : {std::make_tuple(col_acc_, "a", "accelerometer"),
+                                           std::make_tuple(col_gyro_, "g", "gyroscope"),
+                                           std::make_tuple(col_mag_, "m", "magnetometer")}) {
+    const int n = (cols[0] >= 0) + (cols[1] >= 0) + (cols[2] >= 0);
+    if (n == 0 || n == 3) continue;
+    std::string missing;
+    for (int a = 0; a < 3; ++a)
+      if (cols[a] < 0)
+        missing += (missing.empty() ? "" : ", ") + std::string(prefix) + kAxisNames[a];
+    report(in, 0,
+           std::string("the ") + what + " needs all three axes: no column " + missing +
+               " (expected " + kRequired + ", or a sensor alone)",
+           diag);
+    return false;
+  }
+  if (col_acc_[0] < 0 && col_mag_[0] < 0) {
+    report(in, 0,
+           std::string("no column ax, ay, az (accelerometer) nor mx, my, mz (magnetometer): "
+                       "expected ") +
+               kRequired + ", or t, mx, my, mz for a magnetometer alone",
+           diag);
+    return false;
+  }
+  if (col_gyro_[0] >= 0 && col_acc_[0] < 0) {
+    report(in, 0,
+           "gx, gy, gz without ax, ay, az: the gyroscope is calibrated against gravity, it needs "
+           "the accelerometer",
+           diag);
+    return false;
+  }
+  column_list_.clear();
+  for (std::size_t c = 0; c < names.size(); ++c)
+    column_list_ += (c ? ", " : "") + (names[c].empty() ? std::string("-") : names[c]);
+  return true;
+}
+
 bool SampleReader::read_header(Diagnostics& diag) {
   LineReader& in = in_[0];
   std::string_view line;
@@ -348,54 +423,57 @@ bool SampleReader::read_header(Diagnostics& diag) {
   }
   split_fields(line, fields_);
   double number = 0;
-  if (!fields_.empty() && parse_number(fields_[0].text, number)) {
-    std::string msg =
-        std::string("expected a header line naming the columns (") + kRequired + "), found numbers";
-    if (fields_.size() == 4)
+  const bool numeric = !fields_.empty() && parse_number(fields_[0].text, number);
+  // The names: --columns, else a `# imucal: columns=` comment, else the header line, else six
+  // numeric columns are taken as ax ay az gx gy gz.
+  std::string given = columns_given_;
+  columns_source_ = "--columns";
+  if (given.empty()) {
+    for (const FileSetting& s : settings_)
+      if (s.key == "columns") given = s.value;
+    columns_source_ = "columns= comment";
+  }
+  if (given.empty() && numeric && !columns_default_.empty()) {
+    given = columns_default_;
+    columns_source_ = "assumed";
+  }
+  std::vector<std::string> names;
+  if (!given.empty()) {
+    std::vector<Field> parts;
+    split_fields(given, parts);
+    for (const Field& f : parts) names.push_back(lower(f.text));
+  } else if (!numeric) {
+    columns_source_ = "header";
+    for (const Field& f : fields_) names.push_back(lower(f.text));
+  } else if (fields_.size() == 6) {
+    columns_source_ = "assumed";
+    names = {"ax", "ay", "az", "gx", "gy", "gz"};
+  } else {
+    std::string msg = "no header line naming the columns (found numbers, " +
+                      std::to_string(fields_.size()) +
+                      " per line): give --columns NAMES in the file's order (t, ax, ay, az, gx, "
+                      "gy, gz, temp, mx, my, mz; - skips a column), e.g. --columns ";
+    if (fields_.size() == 7) {
+      msg += "t,ax,ay,az,gx,gy,gz (or ax,ay,az,gx,gy,gz,temp)";
+    } else if (fields_.size() == 4) {
       msg +=
-          "; this looks like an imu_tk file (t x y z): give the accelerometer file and the "
-          "gyroscope file";
+          "t,ax,ay,az (an accelerometer alone) or t,mx,my,mz (a magnetometer alone); a pair of "
+          "imu_tk files (t x y z): give the accelerometer file and the gyroscope file";
+    } else if (fields_.size() == 3) {
+      msg += "ax,ay,az (one pose per line; or --poses) or mx,my,mz (a magnetometer alone)";
+    } else {
+      msg += "t,ax,ay,az,gx,gy,gz";
+    }
     report(in, 1, msg, diag);
     return false;
   }
-  columns_ = fields_.size();
-  for (std::size_t c = 0; c < fields_.size(); ++c) {
-    const std::string name = lower(fields_[c].text);
-    const int ci = static_cast<int>(c);
-    int* slot = nullptr;
-    if (name == "t" || name == "time") slot = &col_t_;
-    if (name == "temp" || name == "temperature") slot = &col_temp_;
-    for (int a = 0; a < 3; ++a) {
-      if (name == std::string("a") + kAxisNames[a]) slot = &col_acc_[a];
-      if (name == std::string("g") + kAxisNames[a]) slot = &col_gyro_[a];
-      if (name == std::string("m") + kAxisNames[a]) slot = &col_mag_[a];
-    }
-    if (slot == nullptr) continue;  // unknown columns are ignored
-    if (*slot >= 0) {
-      report(in, static_cast<long>(fields_[c].offset + 1),
-             "column " + quoted(fields_[c].text) + " named twice", diag);
-      return false;
-    }
-    *slot = ci;
+  if (!name_columns(names, columns_source_ != "header", diag)) return false;
+  // With the names given, a first line that is not numbers is a header: skipped. One of
+  // numbers is the first sample.
+  if (columns_source_ != "header" && numeric) {
+    pending_[0] = std::string(line);
+    has_pending_[0] = true;
   }
-  std::string missing;
-  auto need = [&](int col, const std::string& name) {
-    if (col < 0) missing += (missing.empty() ? "" : ", ") + name;
-  };
-  need(col_t_, "t");
-  for (int a = 0; a < 3; ++a) need(col_acc_[a], std::string("a") + kAxisNames[a]);
-  for (int a = 0; a < 3; ++a) need(col_gyro_[a], std::string("g") + kAxisNames[a]);
-  if (!missing.empty()) {
-    report(in, 0, "the header names no column " + missing + " (expected " + kRequired + ")", diag);
-    return false;
-  }
-  const int mags = (col_mag_[0] >= 0) + (col_mag_[1] >= 0) + (col_mag_[2] >= 0);
-  if (mags != 0 && mags != 3) {
-    report(in, 0, "the header names some but not all of mx, my, mz", diag);
-    return false;
-  }
-  for (std::size_t c = 0; c < fields_.size(); ++c)
-    column_list_ += (c ? ", " : "") + std::string(fields_[c].text);
   data_started_ = true;
   return true;
 }
@@ -432,7 +510,13 @@ bool SampleReader::after_previous(double t, bool have, double previous, const Li
 bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
   LineReader& in = in_[0];
   std::string_view line;
-  while (content_line(in, line, diag)) {
+  for (;;) {
+    if (has_pending_[0]) {  // the first line of a file without a header
+      has_pending_[0] = false;
+      line = pending_[0];
+    } else if (!content_line(in, line, diag)) {
+      break;
+    }
     split_fields(line, fields_);
     if (fields_.size() != columns_) {
       report(in, 0,
@@ -452,8 +536,11 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
     static constexpr const char* kMag[3] = {"mx", "my", "mz"};
     double t = 0;
     get(col_t_, "t", t);
-    for (int a = 0; a < 3; ++a) get(col_acc_[a], kAcc[a], r.acc[a]);
-    for (int a = 0; a < 3; ++a) get(col_gyro_[a], kGyro[a], r.gyro[a]);
+    for (int a = 0; a < 3; ++a) {
+      r.acc[a] = r.gyro[a] = kNaN;  // NaN: no such sensor in the input
+      get(col_acc_[a], kAcc[a], r.acc[a]);
+      get(col_gyro_[a], kGyro[a], r.gyro[a]);
+    }
     // The optional columns may be empty or NaN (a magnetometer slower than the IMU, a
     // temperature read now and then): no reading there, the line is still good.
     auto optional = [&](int col, const char* name, double& out) {
@@ -470,13 +557,19 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
     // A magnetometer reading is all three axes or none.
     if (!(std::isfinite(r.mag[0]) && std::isfinite(r.mag[1]) && std::isfinite(r.mag[2])))
       r.mag[0] = r.mag[1] = r.mag[2] = kNaN;
-    r.t = t * time_scale_;
-    ok = ok && after_previous(
-                   r.t, have_last_, last_t_, in,
-                   static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1), diag);
+    if (col_t_ >= 0) {
+      r.t = t * time_scale_;
+      ok = ok && after_previous(
+                     r.t, have_last_, last_t_, in,
+                     static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1), diag);
+    } else {
+      // No time column: the good samples are evenly spaced at the rate given.
+      r.t = rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
+    }
     if (ok) {
       have_last_ = true;
       last_t_ = r.t;
+      ++index_;
       return true;
     }
     ++skipped_;

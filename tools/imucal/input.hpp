@@ -1,9 +1,12 @@
 // tools/imucal/input.hpp: the `imucal` tool's readers (host only, not library code).
 //
 // Two text formats, read line by line in bounded memory (a serial logger can pipe in):
-//  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz; optional temp,
-//    mx, my, mz; any order, unknown names ignored), then one sample per line. Fields are
-//    separated by commas and/or blanks. The optional fields may be empty or NaN: no reading at
+//  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz;
+//    any order, unknown names ignored), then one sample per line. A sensor is all three of its
+//    axes or none; the accelerometer or the magnetometer must be there; without t the samples
+//    are at i / rate (set_rate). Without a header line, the columns are named by set_columns()
+//    (or a `# imucal: columns=...` comment), or six numeric columns are ax ay az gx gy gz. Fields
+//    are separated by commas and/or blanks. The optional fields may be empty or NaN: no reading at
 //    that sample (a magnetometer slower than the IMU); a magnetometer reading is all three axes
 //    or none. Lines starting with # are comments; a comment
 //    `# imucal: key=value ...` carries settings for the tool (see options.hpp).
@@ -17,6 +20,7 @@
 #include <limits>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace imucal::cli {
@@ -131,12 +135,29 @@ class SampleReader {
                     std::size_t max_line, std::size_t block);
   // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
   void set_time_unit(TimeUnit time);
+  // Without a t column, sample i (0-based, good samples) is at i / hz seconds (hz 0: at i s).
+  // Settable until the first next().
+  void set_rate(double hz) { rate_hz_ = hz; }
+  // The column names, comma-separated (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz; - or _ skip
+  // a column), given before open(): they win over a header line (then skipped) and over a
+  // `# imucal: columns=...` comment.
+  void set_columns(std::string names) { columns_given_ = std::move(names); }
+  // The names of a file without a header when none are given (instead of six numeric columns
+  // as ax ay az gx gy gz): e.g. "ax,ay,az" for a file of poses.
+  void set_headerless_columns(std::string names) { columns_default_ = std::move(names); }
   // The next good sample; bad lines on the way are reported and skipped. False at the end.
   bool next(Record& r, Diagnostics& diag);
 
   Format format() const { return format_; }
   bool has_temperature() const { return col_temp_ >= 0; }
   bool has_magnetometer() const { return col_mag_[0] >= 0; }
+  bool has_accelerometer() const { return col_acc_[0] >= 0; }
+  bool has_gyroscope() const { return col_gyro_[0] >= 0; }
+  bool has_time() const { return col_t_ >= 0; }
+  // How the columns were named: "header", "--columns", "columns= comment", or "assumed" (six
+  // numeric columns without a header); and the names in file order ("-" for a skipped one).
+  const std::string& columns_source() const { return columns_source_; }
+  const std::string& column_names() const { return column_list_; }
   long lines_skipped() const { return skipped_; }
   bool failed() const;  // a read error ended an input early (reported)
   const std::vector<FileSetting>& file_settings() const { return settings_; }
@@ -146,6 +167,7 @@ class SampleReader {
  private:
   bool start(Format format, Diagnostics& diag);
   bool read_header(Diagnostics& diag);
+  bool name_columns(const std::vector<std::string>& names, bool strict, Diagnostics& diag);
   bool next_csv(Record& r, Diagnostics& diag);
   bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
   bool next_imutk(Record& r, Diagnostics& diag);
@@ -165,6 +187,9 @@ class SampleReader {
   int col_temp_ = -1, col_mag_[3] = {-1, -1, -1};
   std::size_t columns_ = 0;
   std::string column_list_;
+  std::string columns_given_, columns_default_, columns_source_;
+  double rate_hz_ = 0;
+  long index_ = 0;  // good samples so far (their time without a t column)
   std::vector<Field> fields_;
   std::string pending_[2];  // imu_tk: the first sample line, read by open()
   bool has_pending_[2] = {false, false};

@@ -35,6 +35,8 @@ constexpr Key kKeys[] = {
     {"accel-range", false, Where::kAnywhere},
     {"gyro-range", false, Where::kAnywhere},
     {"rate", false, Where::kAnywhere},
+    {"columns", false, Where::kAnywhere},
+    {"poses", true, Where::kCommandLineOnly},
     {"mag-unit", false, Where::kAnywhere},
     {"mag-lsb-per-ut", false, Where::kAnywhere},
     {"mag-field-range", false, Where::kAnywhere},
@@ -157,6 +159,16 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     return range(key, value, o.gyro_min, o.gyro_max, error);
   } else if (key == "rate") {
     return positive(key, value, o.nominal_rate_hz, error);
+  } else if (key == "columns") {
+    std::vector<Field> names;
+    split_fields(value, names);
+    if (value.empty() || names.empty()) {
+      error = "--columns: expected the column names in the file's order, e.g. ax,ay,az,gx,gy,gz";
+      return false;
+    }
+    o.columns = value;
+  } else if (key == "poses") {
+    o.pose_file = true;
   } else if (key == "mag-unit") {
     if (!choice({"counts", "ut", "nt", "gauss"}, i)) return false;
     o.mag_unit = static_cast<MagUnit>(i);

@@ -85,6 +85,10 @@ void print_params(std::FILE* out, const char* const* names, const double* p, con
                  param_unit(k, scale_index, unit, out_unit).c_str());
 }
 
+std::string plural_of(long n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
 std::string fmt(const char* format, double v) {
   if (!std::isfinite(v)) return "n/a";
   char buf[64];
@@ -109,11 +113,9 @@ void print_mag_summary(const Run& run, const Options& o, std::FILE* out) {
   }
   const char* mu = mag_unit_name(o.mag_unit);
   std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
-  std::fprintf(out,
-               "  status: %s; %ld readings, %d held (one per direction cell), %d fitted, %d "
-               "iterations\n",
+  std::fprintf(out, "  status: %s; %ld readings, %d held (one per direction cell), %d fitted, %s\n",
                m.status.c_str(), m.readings, static_cast<int>(m.held.size()), m.samples,
-               m.iterations);
+               plural_of(m.iterations, "iteration", "iterations").c_str());
   if (m.readings == 0) return;
   std::fprintf(out,
                "  coverage %s %% of the directions (needs %.0f %%), field %s uT (accepted %g .. "
@@ -189,9 +191,14 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                run.scalar == "float" ? ", as on the device" : ", the reference");
   std::string files;
   for (const std::string& f : o.files) files += (files.empty() ? "" : " + ") + f;
-  std::fprintf(out, "input    %s (%s): %ld samples, %.1f s, %.1f Hz; %ld lines skipped\n",
-               files.c_str(), run.format.c_str(), run.samples, run.t_last - run.t_first,
-               run.rate_hz, run.lines_skipped);
+  if (run.time_source == "none")
+    std::fprintf(out, "input    %s (%s): %ld %s, no time; %ld lines skipped\n", files.c_str(),
+                 run.format.c_str(), run.samples, run.mode == "poses" ? "poses" : "samples",
+                 run.lines_skipped);
+  else
+    std::fprintf(out, "input    %s (%s): %ld samples, %.1f s, %.1f Hz; %ld lines skipped\n",
+                 files.c_str(), run.format.c_str(), run.samples, run.t_last - run.t_first,
+                 run.rate_hz, run.lines_skipped);
   // Settings read from the input, one line per place they were found.
   std::string where, line;
   for (const std::string& s : o.from_files) {
@@ -204,24 +211,90 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
     line += (line.empty() ? "" : " ") + s.substr(0, at);
   }
   if (!line.empty()) std::fprintf(out, "         from %s: %s\n", where.c_str(), line.c_str());
-  std::fprintf(out,
-               "stream   %d poses, %d moves, %d of 6 faces, %d segments (%d coarsenings), %d rests "
-               "too short, %d moves dropped\n",
-               run.poses, run.moves, run.faces_covered, run.segments, run.coarsenings,
-               run.rests_too_short, run.moves_dropped);
-  for (const StreamEvent& e : run.events)
-    std::fprintf(out, "         %s: %ld samples (first at t = %.3f s)\n", e.status.c_str(), e.count,
-                 e.first_t);
-  std::string counted;
-  for (const StreamCount& c : run.stream_counts)
-    if (c.count != 0)
-      counted +=
-          (counted.empty() ? "" : ", ") + std::string(c.name) + " " + std::to_string(c.count);
-  std::fprintf(out, "         calibrator counts: %s\n", counted.empty() ? "none" : counted.c_str());
+  // What the input holds and how it was read.
+  std::string parts;
+  for (const auto& [has, name] :
+       {std::make_pair(run.has_accel, "accelerometer"), std::make_pair(run.has_gyro, "gyroscope"),
+        std::make_pair(run.has_mag, "magnetometer")})
+    if (has) parts += (parts.empty() ? "" : ", ") + std::string(name);
+  std::fprintf(out, "parts    %s%s\n", parts.c_str(),
+               run.mode == "poses" ? " (one pose mean per line)" : "");
+  if (run.columns_source != "header" && run.columns_source != "imu_tk")
+    std::fprintf(out, "columns  %s (%s)\n", run.columns.c_str(),
+                 run.columns_source == "assumed" ? "assumed: no header; --columns says otherwise"
+                                                 : ("from " + run.columns_source).c_str());
+  if (run.time_source == "--rate")
+    std::fprintf(out, "time     no t column: sample i at i / %g s (--rate)\n", o.nominal_rate_hz);
+  auto inferred = [&](const char* sensor, const std::string& format, double lo, double hi) {
+    if (!format.empty())
+      std::fprintf(out,
+                   "         %s readings are %s counts: at %g or %g taken as saturated (give "
+                   "--%s-range to say otherwise)\n",
+                   sensor, format.c_str(), lo, hi, sensor);
+  };
+  inferred("accel", o.accel_range_inferred, o.accel_min, o.accel_max);
+  inferred("gyro", o.gyro_range_inferred, o.gyro_min, o.gyro_max);
+  if (run.mode == "stream") {
+    std::fprintf(out, "stream   %d poses, %d of 6 faces up%s\n", run.poses, run.faces_covered,
+                 run.has_gyro ? "" : " (accelerometer alone)");
+    if (run.has_gyro) {
+      std::fprintf(out, "         %s between poses, stored as %s (the device's fixed memory)\n",
+                   plural_of(run.moves, "turn", "turns").c_str(),
+                   plural_of(run.segments, "gyro segment", "gyro segments").c_str());
+      if (run.coarsenings > 0)
+        std::fprintf(out,
+                     "         segment store full: adjacent segments merged %s to fit it (exact "
+                     "sums of the turn statistics; each merge coarsens the integration of one "
+                     "turn slightly)\n",
+                     plural_of(run.coarsenings, "time", "times").c_str());
+      if (run.moves_dropped > 0)
+        std::fprintf(out,
+                     "         %s not used for the gyroscope (across a gap, a frozen or saturated "
+                     "sensor, a full pose store, or the end while turning)\n",
+                     plural_of(run.moves_dropped, "turn", "turns").c_str());
+    }
+    if (run.rests_too_short > 0)
+      std::fprintf(out, "         %s shorter than --min-rest (%g s): %s\n",
+                   plural_of(run.rests_too_short, "rest", "rests").c_str(), o.min_rest,
+                   run.rests_too_short == 1 ? "not a pose" : "not poses");
+    for (const StreamEvent& e : run.events)
+      std::fprintf(out, "         %s: %ld samples (first at t = %.3f s)\n", e.status.c_str(),
+                   e.count, e.first_t);
+    std::string counted;
+    for (const StreamCount& c : run.stream_counts)
+      if (c.count != 0)
+        counted +=
+            (counted.empty() ? "" : ", ") + std::string(c.name) + " " + std::to_string(c.count);
+    std::fprintf(out, "         stream faults: %s\n",
+                 counted.empty() ? "none, every sample taken" : counted.c_str());
+  } else if (run.mode == "poses") {
+    std::fprintf(out, "poses    %d (one per line), %d of 6 faces up\n", run.poses,
+                 run.faces_covered);
+  }
+  // Every rest found, the last one included.
+  if (!run.pose_list.empty() && run.mode == "stream") {
+    std::fprintf(out, "rests    (each a pose: from .. to, s; samples)\n");
+    for (std::size_t i = 0; i < run.pose_list.size(); ++i) {
+      const PoseResult& pr = run.pose_list[i];
+      std::fprintf(out, "  %3zu  %9.2f .. %9.2f  %6d\n", i + 1, pr.t_begin, pr.t_end, pr.samples);
+    }
+  }
 
   const char* au = accel_unit_name(o.accel_unit);
-  std::fprintf(out, "\naccelerometer  %s\n  status: %s, %d iterations\n", kAccelModel,
-               run.accel_status.c_str(), run.accel_iterations);
+  if (!run.has_accel) {
+    std::fprintf(out, "\naccelerometer  not in the input\n");
+  } else {
+    std::fprintf(out, "\naccelerometer  %s\n  status: %s%s\n", kAccelModel,
+                 run.accel_status.c_str(),
+                 !run.accel_ok ? ""
+                 : run.accel_iterations == 0
+                     ? " (closed-form start, no refinement needed)"
+                     : (" (closed-form start refined in " +
+                        plural_of(run.accel_iterations, "Levenberg-Marquardt iteration",
+                                  "Levenberg-Marquardt iterations") +
+                        ")")
+                           .c_str());
+  }
   if (run.accel_ok) {
     print_params(out, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9, 3, au,
                  "m/s^2");
@@ -229,21 +302,32 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  fmt("%.5f", run.accel_pose_rms_before).c_str(),
                  fmt("%.5f", run.accel_pose_rms_after).c_str(),
                  run.have_nominal_accel ? "" : " (before: give the nominal --accel-lsb-per-g)");
-    std::fprintf(out,
-                 "  per sample over the rests, RMS: %s m/s^2 (the sensor's own noise about each "
-                 "pose: %s)\n",
-                 fmt("%.5f", run.accel_sample_rms_after).c_str(),
-                 fmt("%.5f", run.accel_noise_floor).c_str());
+    if (run.mode == "stream")
+      std::fprintf(out,
+                   "  per sample over the rests, RMS: %s m/s^2 (the sensor's own noise about each "
+                   "pose: %s)\n",
+                   fmt("%.5f", run.accel_sample_rms_after).c_str(),
+                   fmt("%.5f", run.accel_noise_floor).c_str());
   }
   const char* gu = gyro_unit_name(o.gyro_unit);
-  std::fprintf(out, "\ngyroscope      %s\n  status: %s, %d iterations, bias %s\n", kGyroModel,
-               run.gyro_status.c_str(), run.gyro_iterations,
-               run.gyro_bias_refined ? "refined" : "from the initial rest");
+  if (!run.has_gyro) {
+    std::fprintf(out, "\ngyroscope      not in the input\n");
+  } else {
+    std::fprintf(out, "\ngyroscope      %s\n  status: %s%s, bias %s\n", kGyroModel,
+                 run.gyro_status.c_str(),
+                 run.gyro_ok ? (" (" +
+                                plural_of(run.gyro_iterations, "Levenberg-Marquardt iteration",
+                                          "Levenberg-Marquardt iterations") +
+                                ")")
+                                   .c_str()
+                             : "",
+                 run.gyro_bias_refined ? "refined" : "from the initial rest");
+  }
   if (run.gyro_ok) {
     print_params(out, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12, 6, gu,
                  "rad/s");
   }
-  if (run.accel_ok) {
+  if (run.accel_ok && run.has_gyro) {
     std::fprintf(out,
                  "  residual per move (angle of carried vs measured gravity), RMS: before %s, "
                  "after %s deg%s\n",
@@ -252,6 +336,10 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
   }
   print_mag_summary(run, o, out);
   print_temperature_summary(run, o, out);
+  if (!run.advice.empty()) {
+    std::fprintf(out, "\n%s\n", run.usable ? "to do better" : "why, and what to do");
+    for (const std::string& a : run.advice) std::fprintf(out, "  - %s\n", a.c_str());
+  }
   std::fprintf(out, "\nquality  %s: %s\n", run.quality.c_str(),
                run.usable ? "usable" : "NOT usable (see the statuses above)");
 }
@@ -385,7 +473,14 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   for (const StreamEvent& e : run.events)
     events.push_back({{"status", e.status}, {"samples", e.count}, {"first_t_s", e.first_t}});
   input["stream_events"] = events;
+  input["columns"] = run.columns;
+  input["columns_source"] = run.columns_source;
+  input["time"] = run.time_source;
   j["input"] = input;
+  j["parts"] = {{"accelerometer", run.has_accel},
+                {"gyroscope", run.has_gyro},
+                {"magnetometer", run.has_mag},
+                {"mode", run.mode}};
 
   Json config;
   config["scalar"] = run.scalar;
@@ -404,6 +499,12 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   };
   config["accel_range"] = range(o.accel_min, o.accel_max);
   config["gyro_range"] = range(o.gyro_min, o.gyro_max);
+  // "given", or the integer format the readings fit ("int16", "uint16"), or null: none.
+  auto source = [](double lo, const std::string& inferred) {
+    return !std::isfinite(lo) ? Json(nullptr) : inferred.empty() ? Json("given") : Json(inferred);
+  };
+  config["accel_range_source"] = source(o.accel_min, o.accel_range_inferred);
+  config["gyro_range_source"] = source(o.gyro_min, o.gyro_range_inferred);
   config["nominal_rate_hz"] = o.nominal_rate_hz > 0 ? Json(o.nominal_rate_hz) : Json(nullptr);
   config["mag_unit"] = mag_unit_name(o.mag_unit);
   config["mag_lsb_per_ut"] = number(o.mag_lsb_per_ut);
@@ -461,6 +562,7 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
   j["temperature"] = temperature_json(run, o);
   j["quality"] = run.quality;
   j["usable"] = run.usable;
+  j["advice"] = run.advice;
 
   Json poses = Json::array();
   for (const PoseResult& p : run.pose_list)
@@ -516,18 +618,32 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
   for (const std::string& f : o.files) files += (files.empty() ? "" : " + ") + f;
   h << "/* imucal calibration (generated by `imucal calibrate`, " << run.scalar << ", quality "
     << run.quality << ")\n"
-    << " * from " << files << ": " << run.poses << " poses, " << run.moves << " moves\n"
-    << " *\n"
-    << " * accelerometer: " << kAccelModel << "\n"
-    << " * gyroscope:     " << kGyroModel << "\n"
-    << " * " << kConvention << ".\n"
-    << " * Raw units in: accelerometer " << accel_unit_name(o.accel_unit) << ", gyroscope "
-    << gyro_unit_name(o.gyro_unit) << ". Out: m/s^2 and rad/s.\n"
-    << " *\n"
-    << " * Apply with one 3x3 multiply-add per sensor, M = T K precomputed (row-major):\n"
-    << " *   a_cal[i] = sum_j IMUCAL_ACCEL_M[i][j] * (a_raw[j] + IMUCAL_ACCEL_B[j])\n"
-    << " *   w_cal[i] = sum_j IMUCAL_GYRO_M[i][j]  * (w_raw[j] + IMUCAL_GYRO_B[j])\n"
-    << " * The parameters and their one-sigma uncertainties follow in the model's order.\n";
+    << " * from " << files << ": " << run.poses << " poses, " << run.moves << " moves\n";
+  const bool both = run.accel_ok && run.gyro_ok;
+  if (both)
+    h << " *\n"
+      << " * accelerometer: " << kAccelModel << "\n"
+      << " * gyroscope:     " << kGyroModel << "\n"
+      << " * " << kConvention << ".\n"
+      << " * Raw units in: accelerometer " << accel_unit_name(o.accel_unit) << ", gyroscope "
+      << gyro_unit_name(o.gyro_unit) << ". Out: m/s^2 and rad/s.\n"
+      << " *\n"
+      << " * Apply with one 3x3 multiply-add per sensor, M = T K precomputed (row-major):\n"
+      << " *   a_cal[i] = sum_j IMUCAL_ACCEL_M[i][j] * (a_raw[j] + IMUCAL_ACCEL_B[j])\n"
+      << " *   w_cal[i] = sum_j IMUCAL_GYRO_M[i][j]  * (w_raw[j] + IMUCAL_GYRO_B[j])\n"
+      << " * The parameters and their one-sigma uncertainties follow in the model's order.\n";
+  else if (run.accel_ok)
+    h << " *\n"
+      << " * accelerometer: " << kAccelModel << "\n"
+      << " * " << kConvention << ".\n"
+      << " * Raw unit in: " << accel_unit_name(o.accel_unit) << ". Out: m/s^2.\n"
+      << " * gyroscope: none (" << run.gyro_status << ")\n"
+      << " *\n"
+      << " * Apply with one 3x3 multiply-add, M = T K precomputed (row-major):\n"
+      << " *   a_cal[i] = sum_j IMUCAL_ACCEL_M[i][j] * (a_raw[j] + IMUCAL_ACCEL_B[j])\n"
+      << " * The parameters and their one-sigma uncertainties follow in the model's order.\n";
+  else
+    h << " *\n * accelerometer and gyroscope: none (" << run.accel_status << ")\n";
   const MagResult& m = run.mag;
   const TemperatureResult& t = run.temperature;
   const bool temp_accel = t.present && t.accel.ok, temp_gyro = t.present && t.gyro.ok;
@@ -557,18 +673,24 @@ bool write_header(const Run& run, const Options& o, const std::string& path) {
     h << " *\n * temperature model: none (" << t.status << ")\n";
   h << " */\n"
     << "#ifndef IMUCAL_CALIBRATION_H\n#define IMUCAL_CALIBRATION_H\n\n";
-  h << "static const float IMUCAL_ACCEL_M[3][3] = " << rows(row_major(accel_matrix(pa))) << ";\n";
-  h << "static const float IMUCAL_ACCEL_B[3] = {" << values(run.accel_params, 6, 3) << "};\n";
-  h << "static const float IMUCAL_GYRO_M[3][3] = " << rows(row_major(gyro_matrix<double>(pg)))
-    << ";\n";
-  h << "static const float IMUCAL_GYRO_B[3] = {" << values(run.gyro_params, 9, 3) << "};\n\n";
-  h << "/* alpha_yz, alpha_zy, alpha_zx, s_x, s_y, s_z, b_x, b_y, b_z */\n";
-  h << "static const float IMUCAL_ACCEL_PARAMS[9] = {" << values(run.accel_params, 0, 9) << "};\n";
-  h << "static const float IMUCAL_ACCEL_SIGMA[9] = {" << values(run.accel_sigma, 0, 9) << "};\n";
-  h << "/* gamma_yz, gamma_zy, gamma_zx, gamma_xz, gamma_xy, gamma_yx, s_x, s_y, s_z, b_x, b_y, "
-       "b_z */\n";
-  h << "static const float IMUCAL_GYRO_PARAMS[12] = {" << values(run.gyro_params, 0, 12) << "};\n";
-  h << "static const float IMUCAL_GYRO_SIGMA[12] = {" << values(run.gyro_sigma, 0, 12) << "};\n";
+  if (run.accel_ok) {
+    h << "static const float IMUCAL_ACCEL_M[3][3] = " << rows(row_major(accel_matrix(pa))) << ";\n";
+    h << "static const float IMUCAL_ACCEL_B[3] = {" << values(run.accel_params, 6, 3) << "};\n";
+    h << "/* alpha_yz, alpha_zy, alpha_zx, s_x, s_y, s_z, b_x, b_y, b_z */\n";
+    h << "static const float IMUCAL_ACCEL_PARAMS[9] = {" << values(run.accel_params, 0, 9)
+      << "};\n";
+    h << "static const float IMUCAL_ACCEL_SIGMA[9] = {" << values(run.accel_sigma, 0, 9) << "};\n";
+  }
+  if (run.gyro_ok) {
+    h << "static const float IMUCAL_GYRO_M[3][3] = " << rows(row_major(gyro_matrix<double>(pg)))
+      << ";\n";
+    h << "static const float IMUCAL_GYRO_B[3] = {" << values(run.gyro_params, 9, 3) << "};\n\n";
+    h << "/* gamma_yz, gamma_zy, gamma_zx, gamma_xz, gamma_xy, gamma_yx, s_x, s_y, s_z, b_x, b_y, "
+         "b_z */\n";
+    h << "static const float IMUCAL_GYRO_PARAMS[12] = {" << values(run.gyro_params, 0, 12)
+      << "};\n";
+    h << "static const float IMUCAL_GYRO_SIGMA[12] = {" << values(run.gyro_sigma, 0, 12) << "};\n";
+  }
   auto define = [&](const char* name, double v, const char* comment) {
     std::snprintf(buf, sizeof buf, "%.9g", v);
     std::string lit = buf;
@@ -633,9 +755,9 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
   }
   std::fprintf(out, "\nagainst the truth in %s (error / sigma):\n", truth_path.c_str());
   auto table = [&](const char* what, const Json& t, const char* const* names, const double* p,
-                   const double* sd, int n, bool ok) {
+                   const double* sd, int n, bool ok, bool present) {
     if (!ok) {
-      std::fprintf(out, "  %s: not calibrated\n", what);
+      std::fprintf(out, "  %s: %s\n", what, present ? "not calibrated" : "not in the input");
       return;
     }
     double worst = 0;
@@ -649,9 +771,9 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     std::fprintf(out, "\n  %s: worst %.2f sigma\n", what, worst);
   };
   table("accelerometer", *ta, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9,
-        run.accel_ok);
+        run.accel_ok, run.has_accel);
   table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
-        run.gyro_ok);
+        run.gyro_ok, run.has_gyro);
   // The magnetometer and the temperature model, when the file has their truth (simulate).
   auto vec3 = [](const Json& j, double* v) {
     if (!j.is_array() || j.size() != 3) return false;
@@ -670,7 +792,8 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
   if (truth.contains("magnetometer") && truth["magnetometer"].is_object()) {
     const Json& m = truth["magnetometer"];
     if (!run.mag.ok) {
-      std::fprintf(out, "  magnetometer: not calibrated\n");
+      std::fprintf(out, "  magnetometer: %s\n",
+                   run.has_mag ? "not calibrated" : "not in the input");
     } else {
       if (m.contains("hard_iron") && vec3(m["hard_iron"], t3))
         z3("magnetometer hard iron h", run.mag.hard_iron, t3, run.mag.hard_iron_sigma);

@@ -36,7 +36,14 @@ struct Options {
   double min_rest = 1;                // s
   // Full scale in raw units: a reading at or beyond a limit is saturated (NaN: not given).
   double accel_min = kNaN, accel_max = kNaN, gyro_min = kNaN, gyro_max = kNaN;
-  double nominal_rate_hz = 0;  // the configured sample rate (0: not checked)
+  // Inferred when a sensor's unit is counts and no range was given: the integer format's
+  // limits ("int16", "uint16"), else empty.
+  std::string accel_range_inferred, gyro_range_inferred;
+  // The configured sample rate: with a t column checked against it (0: not checked); without
+  // one, sample i is at i / rate.
+  double nominal_rate_hz = 0;
+  std::string columns;     // --columns: the names in the file's order ("" : header or default)
+  bool pose_file = false;  // --poses: one line per pose mean (accelerometer only)
   bool refine_gyro_bias = false;
   // Magnetometer (used when the input has mx, my, mz): unit, nominal counts per uT (counts
   // only), the Earth-field bounds in uT, the coverage needed, alignment to the accelerometer.
@@ -149,6 +156,12 @@ struct Run {
   std::string scalar;  // "float" or "double"
   // Input.
   std::string format;  // "csv" or "imu_tk"
+  // What the input holds, and so what is calibrated: the sensors, and how it was read.
+  bool has_accel = true, has_gyro = true, has_mag = false;
+  std::string mode = "stream";  // "stream", "poses" (one line per pose), "magnetometer"
+  std::string columns;          // the column names as read, in file order
+  std::string columns_source;   // "header", "--columns", "columns= comment", "assumed"
+  std::string time_source;      // "t column", "--rate", "none"
   long samples = 0, lines_skipped = 0;
   double t_first = 0, t_last = 0, rate_hz = 0;
   std::vector<std::string> diagnostics;  // the first ones, "file:line:column: message"
@@ -179,7 +192,12 @@ struct Run {
   double gyro_rms_before = kNaN, gyro_rms_after = kNaN;  // deg per move
   std::string quality;                                   // none, poor, fair, good
   int quality_level = 0;  // the same as a number: 0 none, 1 poor, 2 fair, 3 good
-  bool usable = false;    // both sensors calibrated (quality fair or good)
+  // What the input holds is calibrated: both sensors (quality fair or good), the accelerometer
+  // of an accelerometer-only input, the magnetometer of a magnetometer-only one.
+  bool usable = false;
+  // Why not usable or weak, and what to do next: sentences for the user (the library's hint,
+  // the counts explained). Empty when there is nothing to say.
+  std::vector<std::string> advice;
   std::vector<PoseResult> pose_list;
   std::vector<MoveResult> move_list;
   MagResult mag;
