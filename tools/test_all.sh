@@ -28,6 +28,9 @@ for preset in host host-asan m4f m7 m33; do
   ctest --preset "$preset"
 done
 
+tools/test_consumers.sh  # imucal from outside: add_subdirectory, FetchContent, find_package
+tools/check_no_heap.sh   # no heap at -Os, -O2, -O3, with and without -flto, each Arm target
+
 echo "== fuzzing the imucal tool's readers (libFuzzer, ASan + UBSan, 60 s)"
 tools/fuzz.sh 60
 
