@@ -7,8 +7,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 src=$PWD
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+work=$PWD/build/consumers
+rm -rf "$work"; mkdir -p "$work"
 lib_lines=$(grep -c "^set(IMUCAL_PART_SOURCES_" CMakeLists.txt)  # one line per part
 max_objects=$(( $(grep "^set(IMUCAL_PART_SOURCES_" CMakeLists.txt | wc -w) - lib_lines + 2 ))  # + port_file + main
 

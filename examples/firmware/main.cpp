@@ -3,6 +3,7 @@
 // flash, reboot, load it, apply it. SimulatedImu stands in for the IMU driver and SimNorFlash
 // for the flash driver; printf goes out over semihosting. No heap, no exceptions, no
 // function-local statics (those need a thread-safe guard, and with it the unwinder).
+#include <cmath>
 #include <cstdio>
 
 #include "imucal/calibrator.hpp"
@@ -62,17 +63,20 @@ int main() {
   std::printf("load: %s\n", imucal::to_string(s));
   if (s != imucal::Status::kOk) return 1;
 
-  // Apply: raw in, calibrated out. The simulator knows the truth, so the error is printed.
-  float worst_acc = 0.0f, worst_gyro = 0.0f;
+  // Apply: raw in, calibrated out. The simulator knows the truth: the RMS error over 5 s of
+  // turning and resting is the sensor noise (0.017 m/s^2, 0.0035 rad/s) plus what is left of
+  // the distortion (uncalibrated: about 0.3 m/s^2 and 0.1 rad/s).
+  float sum_acc = 0.0f, sum_gyro = 0.0f;
   imucal::ImuSample<float> sample;
-  for (int i = 0; i < 500 && imu.read(sample); ++i) {
+  int n = 0;
+  for (; n < 500 && imu.read(sample); ++n) {
     imucal::Vector3<float> acc, gyro;
     corrector.apply(sample.acc, sample.gyro, acc, gyro);
-    const float e_acc = (acc - imu.true_acc()).norm(), e_gyro = (gyro - imu.true_rate()).norm();
-    if (e_acc > worst_acc) worst_acc = e_acc;
-    if (e_gyro > worst_gyro) worst_gyro = e_gyro;
+    sum_acc += (acc - imu.true_acc()).squaredNorm();
+    sum_gyro += (gyro - imu.true_rate()).squaredNorm();
   }
-  std::printf("apply: worst error %d mm/s^2, %d mrad/s\n", static_cast<int>(worst_acc * 1e3f),
-              static_cast<int>(worst_gyro * 1e3f));
-  return worst_acc < 0.05f && worst_gyro < 0.02f ? 0 : 1;
+  const float rms_acc = std::sqrt(sum_acc / 500.0f), rms_gyro = std::sqrt(sum_gyro / 500.0f);
+  std::printf("apply: %d samples, RMS error %d mm/s^2, %d mrad/s\n", n,
+              static_cast<int>(rms_acc * 1e3f), static_cast<int>(rms_gyro * 1e3f));
+  return n == 500 && rms_acc < 0.025f && rms_gyro < 0.006f ? 0 : 1;
 }

@@ -37,7 +37,7 @@ class SimulatedImu {
  private:
   static constexpr float kGravity = 9.81f;
   static constexpr float kPi = 3.14159265f;
-  static constexpr int kMoves = 30;
+  static constexpr int kMoves = 60;
   static constexpr float kRestSeconds = 2.0f, kMoveSeconds = 1.0f, kFirstRestSeconds = 11.0f;
 
   // Time passes; the device rests, then turns about the next axis. False at the end.
