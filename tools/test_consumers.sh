@@ -37,10 +37,10 @@ for platform in host m4f; do
     cmake -S tests/consumer -B "$b" -G Ninja "${toolchain[@]}" -DIMUCAL_CONSUMER_MODE=$mode \
       -DIMUCAL_SOURCE_DIR="$src" -DCMAKE_PREFIX_PATH="$work/prefix-$platform" >/dev/null
     cmake --build "$b" >"$b/build.log"
-    objects=$(find "$b" -name '*.o' | wc -l)
+    objects=$(find "$b" -name '*.o' -o -name '*.obj' | wc -l)
     echo "compiled objects: $objects (at most $max_objects)"
     if [ "$objects" -gt "$max_objects" ]; then
-      find "$b" -name '*.o'
+      find "$b" -name '*.o' -o -name '*.obj'
       exit 1
     fi
     if ninja -C "$b" -t targets all | grep -E "^(gtest|imucal_tool|imucal_footprint|bench_|test_)" \
