@@ -28,6 +28,9 @@ for preset in host host-asan m4f m7 m33; do
   ctest --preset "$preset"
 done
 
+tools/test_consumers.sh  # imucal from outside: add_subdirectory, FetchContent, find_package
+tools/check_no_heap.sh m4f:-Os,-O2,-O3 m7:-Os m33:-Os  # no heap, with and without -flto
+
 echo "== fuzzing the imucal tool's readers (libFuzzer, ASan + UBSan, 60 s)"
 tools/fuzz.sh 60
 

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Proves "no heap" at link time at every optimisation level: for each Arm target and level, a
+# small build of only the footprint program (bench/footprint: the whole API in float), compiled
+# once into fat LTO objects and linked twice, without and with -flto. cmake/CheckNoHeap.cmake
+# fails the build if either program links malloc, free, operator new/delete, exception
+# allocation or a thread-safe static guard, and prints its sizes.
+#   tools/check_no_heap.sh                  every target at -Os, -O2 and -O3
+#   tools/check_no_heap.sh m4f:-Os,-O3 m7:-Os   chosen targets and levels
+set -euo pipefail
+cd "$(dirname "$0")/.."
+configs=("$@")
+[ ${#configs[@]} -gt 0 ] || configs=(m4f:-Os,-O2,-O3 m7:-Os,-O2,-O3 m33:-Os,-O2,-O3)
+declare -A toolchain=([m4f]=cortex-m4f [m7]=cortex-m7 [m33]=cortex-m33 [m3]=cortex-m3
+                      [m0plus]=cortex-m0plus)
+for config in "${configs[@]}"; do
+  target=${config%%:*}
+  IFS=, read -ra levels <<<"${config#*:}"
+  for level in "${levels[@]}"; do
+    dir="build/noheap/$target$level"
+    echo "== no heap: $target $level, with and without -flto"
+    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE= \
+      -DCMAKE_TOOLCHAIN_FILE="$PWD/toolchains/${toolchain[$target]}.cmake" \
+      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF \
+      -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
+      -DIMUCAL_FOOTPRINT_OPT="$level" -DIMUCAL_FOOTPRINT_LTO=ON >/dev/null
+    if ! cmake --build "$dir" --target imucal_footprint imucal_footprint_lto >"$dir/build.log" 2>&1
+    then
+      cat "$dir/build.log"
+      exit 1
+    fi
+    grep -E "no-heap|text .* B" "$dir/build.log"
+  done
+done
