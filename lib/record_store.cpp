@@ -13,7 +13,7 @@ using detail::load_u32;
 using detail::store_u32;
 
 constexpr std::uint16_t kCommitTag = 0xC35Au;
-constexpr int kMaxReads = 4;  // reads of a slot until two agree
+constexpr int kMaxReads = 4;  // reads of a slot until two agree (unreadable: all of them)
 
 // a was written after b (sequence numbers wrap: serial-number arithmetic).
 bool later(std::uint32_t a, std::uint32_t b) { return static_cast<std::int32_t>(a - b) > 0; }
@@ -110,7 +110,9 @@ RecordStore::View RecordStore::read_settled(int slot, CalibrationRecord* out) {
     v.ever_valid = v.ever_valid || r.kind == Kind::kValid;
     v.ever_unreadable = v.ever_unreadable || r.kind == Kind::kUnreadable;
     if (r.kind == Kind::kValid && out != nullptr) *out = record;  // the last valid read
-    if (k > 0 && r.kind == previous.kind && r.status == previous.status &&
+    // Unreadable settles only on the last reads: a burst of read errors is not a torn slot.
+    const bool may_settle = r.kind != Kind::kUnreadable || k == kMaxReads - 1;
+    if (k > 0 && may_settle && r.kind == previous.kind && r.status == previous.status &&
         r.sequence_known == previous.sequence_known && r.sequence == previous.sequence &&
         r.record_crc == previous.record_crc) {
       v.read = r;

@@ -15,8 +15,9 @@
 // save() chooses the slot that does NOT hold the newest valid record, reads the slot it keeps
 // once more, erases the other (the commit's unit first), programs the record, then the commit
 // last. Until the commit is complete and matches the record the slot does not count. Then it
-// reads the slot back. Each slot is read until two reads agree (at most four): a slot that
-// reads differently each time is torn; one that cannot be read may still hold a good record, so
+// reads the slot back. Each slot is read until two reads agree (at most four; unreadable only if
+// the last two of four fail): a slot that reads differently each time is torn; one that cannot
+// be read may still hold a good record, so
 // save() never erases it while the other slot is not known good (it returns kStorageError and
 // changes nothing). The new sequence number follows the largest one ever read from a commit, so
 // it never restarts while a record exists. load() returns the valid record with the later
