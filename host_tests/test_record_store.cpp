@@ -644,6 +644,27 @@ TEST(RecordStoreRegression, AnUnreadableSlotNeverHidesTheGoodOne) {
   ASSERT_EQ(recovered.save(record(5)), Status::kOk);
 }
 
+// After a kOk save, load() returns that record even if one of its reads fails or returns a
+// flipped bit: each slot is read until two reads agree.
+TEST(RecordStoreRegression, OneMisreadInALoadStillReturnsTheNewest) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+    ASSERT_EQ(s.save(record(2)), Status::kOk);
+  }
+  for (int misread = 0; misread < 12; ++misread) {
+    FailingReads r(f);
+    if (misread % 2 == 0)
+      r.fail(misread, misread + 1);
+    else
+      r.flip(misread);
+    CalibrationRecord out;
+    ASSERT_EQ(RecordStore(r).load(out), Status::kOk) << misread;
+    EXPECT_EQ(out.device_id, 2u) << misread;
+  }
+}
+
 // A save called while another is running on the same store (another task) is refused.
 TEST(RecordStoreRegression, AConcurrentCallIsRefused) {
   Ecc& f = new_flash<Ecc>();
