@@ -61,20 +61,30 @@ TEST(Corrector, MissingPartsPassThrough) {
   EXPECT_EQ(corr.gyro(w), w);
   c.accel.status = Status::kPosesCoplanar;
   EXPECT_EQ(corr.set(c), Status::kPosesCoplanar);  // nothing to load: says why
-  EXPECT_EQ(corr.parts(), 0);
-  EXPECT_EQ(corr.accel(w), w);
+  EXPECT_EQ(corr.parts(), kRecordAccel);           // and keeps what it had
+  Corrector<float> fresh;
+  EXPECT_EQ(fresh.set(c), Status::kPosesCoplanar);
+  EXPECT_EQ(fresh.parts(), 0);
+  EXPECT_EQ(fresh.accel(w), w);
 }
 
+// A part said usable but holding a NaN refuses the whole calibration; the corrector keeps what
+// it had.
 TEST(Corrector, ANaNInACalibrationIsNotLoaded) {
   Calibration<double> c = xsens_like();
   c.accel.params(kAlphaZy) = std::numeric_limits<double>::quiet_NaN();
   Corrector<float> corr;
-  EXPECT_EQ(corr.set(c), Status::kOk);  // the gyro is still usable
-  EXPECT_EQ(corr.parts(), kRecordGyro);
-  c.gyro.params(kGyroScaleX) = std::numeric_limits<double>::infinity();
   EXPECT_EQ(corr.set(c), Status::kNonFiniteInput);
+  EXPECT_EQ(corr.bound(), Bound::kNonFinite);
   EXPECT_EQ(corr.parts(), 0);
   EXPECT_TRUE(corr.accel_matrix_used().isIdentity());
+  ASSERT_EQ(corr.set(xsens_like()), Status::kOk);
+  const Matrix3<float> before = corr.gyro_matrix_used();
+  c = xsens_like();
+  c.gyro.params(kGyroScaleX) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(corr.set(c), Status::kNonFiniteInput);
+  EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro);
+  EXPECT_EQ(corr.gyro_matrix_used(), before);
 }
 
 TEST(Corrector, ApplyCheckedRefusesNonFiniteReadings) {
@@ -198,6 +208,119 @@ TEST(Corrector, EveryPartFromARecord) {
   const Vector3<double> expected_change =
       gyro_matrix<double>(xsens_like().gyro.params) * (10.0 * t.gyro.b1);
   EXPECT_LT(((warm - ref).cast<double>() - expected_change).norm(), 1e-5);
+}
+
+}  // namespace
+}  // namespace imucal
+
+namespace imucal {
+namespace {
+
+// Finite but absurd values are refused before they are loaded, naming the bound; the corrector
+// keeps the calibration it had.
+TEST(CorrectorPlausibility, AbsurdValuesAreRefusedNamingTheBound) {
+  Corrector<float> corr;
+  ASSERT_EQ(corr.set(xsens_like()), Status::kOk);
+  const Matrix3<float> m = corr.accel_matrix_used();
+  const Vector3<float> offset = corr.accel_offset();
+  struct Case {
+    int accel_index, gyro_index;
+    double value;
+    Bound bound;
+  };
+  const Case cases[] = {
+      {kScaleX, -1, 3e38, Bound::kAccelScale},        {kScaleZ, -1, 0.0, Bound::kAccelScale},
+      {kAlphaYz, -1, 0.7, Bound::kAccelMisalignment}, {kBiasY, -1, 1e30, Bound::kAccelOffset},
+      {-1, kGyroScaleY, 3e38, Bound::kGyroScale},     {-1, kGyroScaleY, 0.0, Bound::kGyroScale},
+      {-1, kGammaZx, -0.8, Bound::kGyroMisalignment}, {-1, kGyroBiasZ, 1e12, Bound::kGyroOffset},
+  };
+  for (const Case& k : cases) {
+    Calibration<double> c = xsens_like();
+    if (k.accel_index >= 0) c.accel.params(k.accel_index) = k.value;
+    if (k.gyro_index >= 0) c.gyro.params(k.gyro_index) = k.value;
+    EXPECT_EQ(corr.set(c), Status::kImplausible) << to_string(k.bound);
+    EXPECT_EQ(corr.bound(), k.bound) << to_string(corr.bound());
+    EXPECT_EQ(corr.accel_matrix_used(), m);
+    EXPECT_EQ(corr.accel_offset(), offset);
+  }
+  // The magnetometer: a field of 5000 uT, a soft iron of 3e38.
+  MagCalibration<double> mag = test::example_mag();
+  mag.field_ut = 5000.0;
+  EXPECT_EQ(corr.set_mag(mag), Status::kImplausible);
+  EXPECT_EQ(corr.bound(), Bound::kMagField);
+  mag = test::example_mag();
+  mag.soft_iron(0, 0) = 3e38;
+  EXPECT_EQ(corr.set_mag(mag), Status::kImplausible);
+  EXPECT_EQ(corr.bound(), Bound::kMagSoftIron);
+  EXPECT_EQ(corr.parts() & kRecordMag, 0);
+  // A temperature slope of 1e38 (finite in float too).
+  TemperatureModel<double> t = test::example_temperature(1);
+  t.accel.b1(1) = 1e38;
+  EXPECT_EQ(corr.set_temperature_model(t), Status::kImplausible);
+  EXPECT_EQ(corr.bound(), Bound::kAccelSlope);
+  EXPECT_EQ(corr.parts() & kRecordTemperature, 0);
+  EXPECT_EQ(corr.set_temperature(30.0f), Status::kNotStarted);
+  EXPECT_EQ(corr.accel_offset(), offset);
+  // A record holding the same (written by another encoder): refused whole, nothing changes.
+  CalibrationRecord r;
+  const MagCalibration<double> good_mag = test::example_mag();
+  const TemperatureModel<double> good_t = test::example_temperature(1);
+  ASSERT_EQ(make_record(xsens_like(), 1, 2, r, &good_mag, &good_t), Status::kOk);
+  r.temperature.gyro.b1(0) = 1e38f;
+  EXPECT_EQ(corr.set(r), Status::kImplausible);
+  EXPECT_EQ(corr.bound(), Bound::kGyroSlope);
+  EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro);
+}
+
+// apply_checked() and set_temperature() never return kOk with a NaN or an infinity, whatever the
+// reading or temperature, on the largest calibration the bounds allow.
+TEST(CorrectorPlausibility, NeverOkWithANonFiniteResult) {
+  Calibration<double> c = xsens_like();
+  c.accel.params.setZero();
+  c.accel.params(kScaleX) = c.accel.params(kScaleY) = c.accel.params(kScaleZ) = 999.0;
+  c.accel.params(kAlphaYz) = 0.49;
+  c.gyro.params(kGyroScaleX) = -999.0;
+  c.gyro.params(kGyroBiasX) = 1.0;
+  Corrector<float> corr;
+  ASSERT_EQ(corr.set(c), Status::kOk);
+  TemperatureModel<double> t = test::example_temperature(2);
+  t.accel.b0.setConstant(1.0);
+  t.accel.b1.setConstant(1e-3);  // 1 m/s^2 per degC through the scale of 999
+  t.accel.b2.setConstant(1e-5);
+  t.gyro.b0.setZero();
+  t.gyro.b1.setZero();
+  t.gyro.b2.setZero();
+  ASSERT_EQ(corr.set_temperature_model(t), Status::kOk);
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float max = std::numeric_limits<float>::max();
+  int ok = 0, refused = 0;
+  for (float temperature : {-inf, -1e30f, -max, -100.0f, 0.0f, 45.0f, 1e30f, max, inf, nan}) {
+    const Status s = corr.set_temperature(temperature);
+    if (s == Status::kOk) {
+      EXPECT_TRUE(std::isfinite(corr.accel_offset().sum())) << temperature;
+      EXPECT_TRUE(std::isfinite(corr.temperature())) << temperature;
+    } else {
+      EXPECT_FALSE(std::isfinite(temperature)) << temperature;
+    }
+    for (float raw : {0.0f, 1.0f, 1e30f, 1e36f, -3e38f, max, -max, inf, -inf, nan}) {
+      Vector3<float> a_out(7, 7, 7), w_out(7, 7, 7);
+      const Vector3<float> x(raw, 1.0f, raw);
+      if (corr.apply_checked(x, x, a_out, w_out) == Status::kOk) {
+        EXPECT_TRUE(std::isfinite(a_out.sum()) && std::isfinite(w_out.sum())) << raw;
+        ++ok;
+      } else {
+        EXPECT_EQ(a_out, Vector3<float>(7, 7, 7));
+        ++refused;
+      }
+    }
+  }
+  EXPECT_GT(ok, 0);
+  EXPECT_GT(refused, 0);
+  // Finite readings whose result overflows float are refused too.
+  Vector3<float> a_out, w_out;
+  const Vector3<float> huge(3e38f, 3e38f, 3e38f);
+  EXPECT_EQ(corr.apply_checked(huge, huge, a_out, w_out), Status::kNonFiniteInput);
 }
 
 }  // namespace

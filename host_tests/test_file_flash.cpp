@@ -71,5 +71,31 @@ TEST(FileFlash, ProgramOnlyClearsBitsAndChecksItsArguments) {
   std::remove(path);
 }
 
+// With 16-byte program units (as STM32U5 flash): programs are whole, aligned units, and the
+// store keeps its records there as well.
+TEST(FileFlash, ProgramUnitsAreWholeAndTheStoreUsesThem) {
+  const char* path = "test_file_flash_units.bin";
+  std::remove(path);
+  FileFlash flash;
+  EXPECT_EQ(flash.open(path, FlashGeometry{8192, 4096, 256, 512, false}),
+            Status::kInvalidArgument);  // a program unit above 256 bytes
+  EXPECT_EQ(flash.open(path, FlashGeometry{8192, 4096, 8192, 16, false}),
+            Status::kInvalidArgument);  // a page above the erase unit
+  ASSERT_EQ(flash.open(path, FlashGeometry{8192, 4096, 256, 16, false}), Status::kOk);
+  std::uint8_t a[32] = {};
+  EXPECT_EQ(flash.program(8, a, 16), Status::kInvalidArgument);  // not aligned
+  EXPECT_EQ(flash.program(16, a, 8), Status::kInvalidArgument);  // not a whole unit
+  ASSERT_EQ(flash.program(16, a, 32), Status::kOk);
+  ASSERT_EQ(flash.erase(0), Status::kOk);
+  RecordStore store(flash);
+  ASSERT_EQ(store.check_geometry(), Status::kOk);
+  for (std::uint32_t id = 1; id <= 3; ++id) ASSERT_EQ(store.save(accel_record(id)), Status::kOk);
+  CalibrationRecord out;
+  ASSERT_EQ(RecordStore(flash).load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 3u);
+  flash.close();
+  std::remove(path);
+}
+
 }  // namespace
 }  // namespace imucal

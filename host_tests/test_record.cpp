@@ -464,3 +464,130 @@ TEST(Record, GrownFormatStillDecodes) {
 
 }  // namespace
 }  // namespace imucal
+
+namespace imucal {
+namespace {
+
+// Puts a float into an encoded record and makes the CRC right again.
+void put_f32(Encoded& e, std::size_t at, float v) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  store_u32(e.bytes + at, bits);
+  reseal(e);
+}
+
+// Finite but absurd values (a scale of 3e38, a temperature slope of 1e38, ...) are refused by
+// make, encode and decode alike, each naming the bound it breaks; decode points at the section.
+TEST(RecordPlausibility, AbsurdFiniteValuesAreRefusedEverywhere) {
+  struct Case {
+    const char* what;
+    void (*edit)(Calibration<double>&, TemperatureModel<double>&, MagCalibration<double>&);
+    Bound bound;
+    std::size_t section;  // payload offset of the section the decoder blames
+  };
+  // Sections of full_record(1): info at 24, accelerometer 40, gyro 124, magnetometer 232, then
+  // the temperature model at 344.
+  const Case cases[] = {
+      {"accel scale 3e38", [](auto& c, auto&, auto&) { c.accel.params(kScaleY) = 3e38; },
+       Bound::kAccelScale, 40},
+      {"accel scale 1e-12", [](auto& c, auto&, auto&) { c.accel.params(kScaleX) = 1e-12; },
+       Bound::kAccelScale, 40},
+      {"accel misalignment 0.9", [](auto& c, auto&, auto&) { c.accel.params(kAlphaZx) = 0.9; },
+       Bound::kAccelMisalignment, 40},
+      {"accel bias 1e30", [](auto& c, auto&, auto&) { c.accel.params(kBiasZ) = 1e30; },
+       Bound::kAccelOffset, 40},
+      {"gyro scale -3e38", [](auto& c, auto&, auto&) { c.gyro.params(kGyroScaleZ) = -3e38; },
+       Bound::kGyroScale, 124},
+      {"gyro misalignment -2", [](auto& c, auto&, auto&) { c.gyro.params(kGammaXy) = -2.0; },
+       Bound::kGyroMisalignment, 124},
+      {"gyro bias 1e8 counts", [](auto& c, auto&, auto&) { c.gyro.params(kGyroBiasY) = 1e8; },
+       Bound::kGyroOffset, 124},
+      {"field 5000 uT", [](auto&, auto&, auto& m) { m.field_ut = 5000.0; }, Bound::kMagField, 232},
+      {"soft iron 3e38", [](auto&, auto&, auto& m) { m.soft_iron(1, 1) = 3e38; },
+       Bound::kMagSoftIron, 232},
+      {"hard iron 1e20", [](auto&, auto&, auto& m) { m.hard_iron(0) = 1e20; }, Bound::kMagOffset,
+       232},
+      {"accel slope 1e38", [](auto&, auto& t, auto&) { t.accel.b1(0) = 1e38; }, Bound::kAccelSlope,
+       344},
+      {"gyro slope 1e5 counts/degC", [](auto&, auto& t, auto&) { t.gyro.b1(2) = 1e5; },
+       Bound::kGyroSlope, 344},
+      {"model reference 1e30 degC", [](auto&, auto& t, auto&) { t.reference_c = 1e30; },
+       Bound::kTemperature, 344},
+  };
+  for (const Case& k : cases) {
+    Calibration<double> c = example_calibration();
+    TemperatureModel<double> t = example_temperature(1);
+    MagCalibration<double> m = example_mag();
+    k.edit(c, t, m);
+    CalibrationRecord r;
+    Bound bound = Bound::kNone;
+    EXPECT_EQ(make_record(c, 1, 2, r, &m, &t, &bound), Status::kImplausible) << k.what;
+    EXPECT_EQ(bound, k.bound) << k.what << ": " << to_string(bound);
+    // The same value in a record built by hand: encode refuses it.
+    CalibrationRecord good = full_record(1);
+    CalibrationRecord bad = good;
+    Calibration<float>& f = bad.calibration;
+    f.accel.params = c.accel.params.cast<float>();
+    f.gyro.params = c.gyro.params.cast<float>();
+    bad.mag.soft_iron = m.soft_iron.cast<float>();
+    bad.mag.hard_iron = m.hard_iron.cast<float>();
+    bad.mag.field_ut = static_cast<float>(m.field_ut);
+    bad.temperature.accel.b1 = t.accel.b1.cast<float>();
+    bad.temperature.gyro.b1 = t.gyro.b1.cast<float>();
+    if (std::isfinite(static_cast<float>(t.reference_c)))
+      bad.temperature.reference_c = static_cast<float>(t.reference_c);
+    else
+      bad.temperature.reference_c = 1e30f;
+    std::uint8_t buf[kRecordMaxBytes];
+    std::size_t n = 0;
+    EXPECT_EQ(encode_record(bad, buf, sizeof buf, &n), Status::kImplausible) << k.what;
+    EXPECT_EQ(record_bound(bad), k.bound) << k.what;
+  }
+  // Decode, field by field: the accelerometer's scale y at 3e38, the temperature slope at 1e38.
+  const Encoded e = encode(full_record(1));
+  CalibrationRecord out;
+  std::size_t where = 0;
+  Bound bound = Bound::kNone;
+  Encoded scale = e;
+  put_f32(scale, 44 + 4 * kScaleY, 3e38f);
+  EXPECT_EQ(decode_record(scale.bytes, scale.size, out, &where, &bound), Status::kRecordBadField);
+  EXPECT_EQ(bound, Bound::kAccelScale);
+  EXPECT_EQ(where, 40u);
+  Encoded slope = e;
+  put_f32(slope, 344 + 16 + 12, 1e38f);  // the accelerometer's b1 x, after T0, min, max, b0
+  EXPECT_EQ(decode_record(slope.bytes, slope.size, out, &where, &bound), Status::kRecordBadField);
+  EXPECT_EQ(bound, Bound::kAccelSlope);
+  EXPECT_EQ(where, 344u);
+  Encoded good = e;
+  EXPECT_EQ(decode_record(good.bytes, good.size, out, &where, &bound), Status::kOk);
+  EXPECT_EQ(bound, Bound::kNone);
+}
+
+// One absurd temperature reading (infinite, or 1e30 finite) in the calibration's temperature
+// note does not make an otherwise good calibration unstorable: the note is dropped.
+TEST(RecordPlausibility, AnAbsurdTemperatureNoteIsDroppedNotTheCalibration) {
+  for (double temperature : {std::numeric_limits<double>::infinity(), -1e30, 1e30, 250.0,
+                             std::numeric_limits<double>::quiet_NaN()}) {
+    Calibration<double> c = example_calibration();
+    c.temperature_c = temperature;
+    CalibrationRecord r;
+    ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk) << temperature;
+    EXPECT_FALSE(r.calibration.has_temperature);
+    EXPECT_EQ(r.calibration.temperature_c, 0.0f);
+    std::uint8_t buf[kRecordMaxBytes];
+    std::size_t n = 0;
+    ASSERT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kOk);
+    CalibrationRecord back;
+    ASSERT_EQ(decode_record(buf, n, back), Status::kOk);
+    EXPECT_EQ(back.calibration.accel.params, r.calibration.accel.params);
+  }
+  Calibration<double> c = example_calibration();
+  c.temperature_c = 199.0;  // inside the bounds: kept
+  CalibrationRecord r;
+  ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk);
+  EXPECT_TRUE(r.calibration.has_temperature);
+  EXPECT_EQ(r.calibration.temperature_c, 199.0f);
+}
+
+}  // namespace
+}  // namespace imucal

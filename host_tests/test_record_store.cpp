@@ -1,13 +1,20 @@
-// The two-slot record store on the simulated NOR flash: save and load, sequence numbers that
-// wrap, a corrupt slot falling back to the other, and power cut at every byte operation of a
-// save (erase and program): afterwards the old or the new record is read, never neither, and
-// the next save succeeds.
+// The two-slot record store: save and load, sequence numbers that wrap, a corrupt or unreadable
+// slot falling back to the other; and, on a simulated flash with ECC that fails like real parts
+// (sim_ecc_flash.hpp), a power cut at every program and erase step for program units of 1 to
+// 256 bytes and erase units of 2 KiB to 128 KiB, with torn units reading as ECC errors,
+// arbitrary bits or weak bits: afterwards the old or the new record is read, never neither,
+// after a kOk save the new one, no unit is ever programmed twice, and the next save succeeds.
+// Then each way the store used to lose a record, as its own test.
 #include <gtest/gtest.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <new>
 
+#include "imucal/port/sim_ecc_flash.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
 #include "imucal/record_store.hpp"
 #include "support/gtest_status.hpp"
@@ -15,8 +22,9 @@
 namespace imucal {
 namespace {
 
-// Two slots of one 1 KB erase unit each, 64-byte pages: every record crosses several pages.
+// Two slots of one 1 KB erase unit each, 64-byte pages, byte-programmable NOR.
 using Flash = SimNorFlash<2048, 1024, 64>;
+constexpr std::uint32_t kRecordAt = 20;  // the record's offset in a slot (1-byte program units)
 
 CalibrationRecord record(std::uint32_t id, bool with_gyro = true) {
   CalibrationRecord r;
@@ -76,13 +84,15 @@ TEST(RecordStore, SavesAlternateSlotsAndLoadTheNewest) {
   EXPECT_EQ(out.device_id, 5u);
 }
 
-// Writes a slot header by hand (the first 8 bytes of a slot): sequence and complement.
+// Rewrites a slot's commit by hand (NOR: the raw bytes), with a consistent commit CRC.
 void set_sequence(Flash& flash, int slot, std::uint32_t seq) {
   std::uint8_t* p = flash.raw() + slot * 1024;
   for (int i = 0; i < 4; ++i) {
     p[i] = static_cast<std::uint8_t>(seq >> (8 * i));
     p[4 + i] = static_cast<std::uint8_t>(~seq >> (8 * i));
   }
+  const std::uint32_t crc = crc32(p, 16);
+  for (int i = 0; i < 4; ++i) p[16 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
 }
 
 TEST(RecordStore, SequenceNumbersWrap) {
@@ -93,12 +103,13 @@ TEST(RecordStore, SequenceNumbersWrap) {
   ASSERT_EQ(store.save(record(2)), Status::kOk);  // slot 1
   set_sequence(flash, 0, 0xFFFFFFFEu);
   set_sequence(flash, 1, 0xFFFFFFFFu);
+  RecordStore rebooted(flash);
   CalibrationRecord out;
-  ASSERT_EQ(store.load(out), Status::kOk);
+  ASSERT_EQ(rebooted.load(out), Status::kOk);
   EXPECT_EQ(out.device_id, 2u);
-  ASSERT_EQ(store.save(record(3)), Status::kOk);  // sequence 0 after 0xFFFFFFFF: newer
-  EXPECT_EQ(store.slot_sequence(0), 0u);
-  ASSERT_EQ(store.load(out), Status::kOk);
+  ASSERT_EQ(rebooted.save(record(3)), Status::kOk);  // sequence 0 after 0xFFFFFFFF: newer
+  EXPECT_EQ(rebooted.slot_sequence(0), 0u);
+  ASSERT_EQ(rebooted.load(out), Status::kOk);
   EXPECT_EQ(out.device_id, 3u);
 }
 
@@ -108,37 +119,92 @@ TEST(RecordStore, ACorruptSlotFallsBackToTheOther) {
   RecordStore store(flash);
   ASSERT_EQ(store.save(record(1)), Status::kOk);
   ASSERT_EQ(store.save(record(2)), Status::kOk);  // slot 1 is the newest
-  flash.raw()[1024 + 8 + 50] ^= 0x10;             // one bit flips in its record
+  flash.raw()[1024 + kRecordAt + 50] ^= 0x10;     // one bit flips in its record
   CalibrationRecord out;
   ASSERT_EQ(store.load(out), Status::kOk);
   EXPECT_EQ(out.device_id, 1u);
   EXPECT_EQ(store.slot_status(1), Status::kRecordBadChecksum);
-  // The next save overwrites the corrupt slot, not the good one.
+  // The next save overwrites the corrupt slot, not the good one, and continues the sequence.
   ASSERT_EQ(store.save(record(3)), Status::kOk);
   EXPECT_EQ(store.slot_status(0), Status::kOk);
+  EXPECT_EQ(store.slot_sequence(1), 3u);
   ASSERT_EQ(store.load(out), Status::kOk);
   EXPECT_EQ(out.device_id, 3u);
   // Both corrupt: no record, said so.
-  flash.raw()[8 + 10] ^= 0x01;
-  flash.raw()[1024 + 8 + 10] ^= 0x01;
+  flash.raw()[kRecordAt + 10] ^= 0x01;
+  flash.raw()[1024 + kRecordAt + 10] ^= 0x01;
   EXPECT_EQ(store.load(out), Status::kNoRecord);
   EXPECT_EQ(store.slot_status(0), Status::kRecordBadChecksum);
 }
 
-TEST(RecordStore, BadGeometryAndFailingFlashAreReported) {
-  static SimNorFlash<1024, 512, 64> tiny;  // 512-byte slots: too small for the largest record
-  RecordStore small(tiny);
-  CalibrationRecord out;
-  EXPECT_EQ(small.check_geometry(), Status::kInvalidArgument);
-  EXPECT_EQ(small.load(out), Status::kInvalidArgument);
-  EXPECT_EQ(small.save(record(1)), Status::kInvalidArgument);
+// A region that only states a geometry (no storage): for the geometry checks.
+class GeometryOnly final : public FlashRegion {
+ public:
+  explicit GeometryOnly(FlashGeometry g) : g_(g) {}
+  FlashGeometry geometry() const override { return g_; }
+  Status read(std::uint32_t, std::uint8_t*, std::uint32_t) override {
+    return Status::kStorageError;
+  }
+  Status program(std::uint32_t, const std::uint8_t*, std::uint32_t) override {
+    return Status::kStorageError;
+  }
+  Status erase(std::uint32_t) override { return Status::kStorageError; }
+
+ private:
+  FlashGeometry g_;
+};
+
+TEST(RecordStore, GeometriesItCannotHonourAreRefused) {
+  struct Case {
+    const char* what;
+    FlashGeometry g;
+    Status want;
+  };
+  const Case cases[] = {
+      {"NOR, 1 KB slots", {2048, 1024, 64, 1, true}, Status::kOk},
+      {"ECC 8-byte units, 2 KB sectors", {4096, 2048, 256, 8, false}, Status::kOk},
+      {"256-byte units, 128-byte erase units", {1536, 128, 128, 128, false}, Status::kOk},
+      {"256-byte units, slot 768", {1536, 768, 256, 256, false}, Status::kOk},
+      {"256-byte units, slot 512", {1024, 512, 256, 256, false}, Status::kInvalidArgument},
+      {"slot too small for the largest record", {1024, 512, 64, 1, true}, Status::kInvalidArgument},
+      {"program unit 0", {2048, 1024, 64, 0, false}, Status::kInvalidArgument},
+      {"program unit 512", {4096, 1024, 512, 512, false}, Status::kInvalidArgument},
+      {"program unit not dividing the page", {2048, 1024, 64, 24, false}, Status::kInvalidArgument},
+      {"page 0", {2048, 1024, 0, 1, true}, Status::kInvalidArgument},
+      {"erase unit 0", {2048, 0, 64, 1, true}, Status::kInvalidArgument},
+      {"three erase units", {3072, 1024, 64, 1, true}, Status::kInvalidArgument},
+      // An erase unit of 2^31: twice it wraps to 0 in 32 bits (a division by zero once).
+      {"erase unit 2^31, one unit",
+       {0x80000000u, 0x80000000u, 256, 8, false},
+       Status::kInvalidArgument},
+      {"erase unit 2^31, size 0", {0, 0x80000000u, 256, 8, false}, Status::kInvalidArgument},
+      {"erase unit 2^30, two units", {0x80000000u, 0x40000000u, 256, 8, false}, Status::kOk},
+      {"erase unit 2^31 + size max",
+       {0xFFFFFFFFu, 0x80000000u, 256, 8, false},
+       Status::kInvalidArgument},
+  };
+  for (const Case& c : cases) {
+    GeometryOnly region(c.g);
+    RecordStore store(region);
+    EXPECT_EQ(store.check_geometry(), c.want) << c.what;
+    if (c.want != Status::kOk) {
+      CalibrationRecord out;
+      EXPECT_EQ(store.load(out), Status::kInvalidArgument) << c.what;
+      EXPECT_EQ(store.save(record(1)), Status::kInvalidArgument) << c.what;
+    }
+  }
+}
+
+TEST(RecordStore, BadRecordAndFailingFlashAreReported) {
   static Flash flash;
   flash = Flash();
   RecordStore store(flash);
   CalibrationRecord invalid = record(1);
-  invalid.calibration.accel.params(kScaleX) = 0.0f;
+  invalid.calibration.accel.params(kScaleX) = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(store.save(invalid), Status::kInvalidArgument);
+  EXPECT_EQ(flash.erases(), 0);  // refused before touching the flash
   flash.cut_power_after(0);
+  CalibrationRecord out;
   EXPECT_EQ(store.save(record(1)), Status::kStorageError);
   EXPECT_EQ(store.load(out), Status::kStorageError);  // no power, no read
 }
@@ -164,7 +230,7 @@ TEST(SimNorFlash, BehavesAsNorFlash) {
   EXPECT_EQ(out[3], 0xFF);
 }
 
-// Counts how many byte operations one save takes (the cut points to try).
+// Counts the byte operations of one save (the cut points to try).
 std::uint32_t save_cost(const Flash& start, const CalibrationRecord& r) {
   static Flash f;
   f = start;
@@ -174,61 +240,456 @@ std::uint32_t save_cost(const Flash& start, const CalibrationRecord& r) {
   return f.byte_operations() - before;
 }
 
-// For every cut point of a save of `next` over a flash holding `old_id` as the newest record:
-// afterwards the store reads old_id or next's id, and a further save succeeds.
-void power_cut_everywhere(const Flash& start, std::uint32_t old_id, const CalibrationRecord& next,
-                          int* old_seen, int* new_seen) {
+// NOR flash, a cut at every byte operation: the old record until the commit is complete.
+TEST(RecordStore, PowerCutAtEveryByteOfNorFlashLeavesOldOrNew) {
+  static Flash start, f;
+  start = Flash();
+  {
+    RecordStore s(start);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+    ASSERT_EQ(s.save(record(2, false)), Status::kOk);
+  }
+  const CalibrationRecord next = record(20);
   const std::uint32_t cost = save_cost(start, next);
   ASSERT_GT(cost, 1024u);  // the erase and the program
-  static Flash f;
+  int old_seen = 0, new_seen = 0;
   for (std::uint32_t cut = 0; cut <= cost; ++cut) {
     f = start;
     f.cut_power_after(cut);
     RecordStore store(f);
     const Status s = store.save(next);
-    if (cut < cost) {
-      ASSERT_EQ(s, Status::kStorageError) << cut;
-      ASSERT_FALSE(f.powered());
-    } else {
-      ASSERT_EQ(s, Status::kOk);
-    }
-    f.power_on();  // reboot
+    ASSERT_EQ(s, cut < cost ? Status::kStorageError : Status::kOk) << cut;
+    f.power_on();
     RecordStore rebooted(f);
     CalibrationRecord out;
-    ASSERT_EQ(rebooted.load(out), Status::kOk) << "cut at byte operation " << cut;
-    ASSERT_TRUE(out.device_id == old_id || out.device_id == next.device_id) << cut;
-    if (out.device_id == old_id)
-      ++*old_seen;
-    else
-      ++*new_seen;
-    // The new record, once readable, stays the newest; and the next save works.
-    const CalibrationRecord after = record(900 + (cut % 7));
-    ASSERT_EQ(rebooted.save(after), Status::kOk) << cut;
+    ASSERT_EQ(rebooted.load(out), Status::kOk) << cut;
+    ASSERT_TRUE(out.device_id == 2u || out.device_id == 20u) << cut;
+    (out.device_id == 2u ? old_seen : new_seen)++;
+    ASSERT_EQ(rebooted.save(record(900)), Status::kOk) << cut;
     ASSERT_EQ(rebooted.load(out), Status::kOk);
-    ASSERT_EQ(out.device_id, after.device_id);
+    ASSERT_EQ(out.device_id, 900u);
+  }
+  // The new record counts only once its commit is complete: the last 20 byte operations.
+  EXPECT_GE(new_seen, 1);
+  EXPECT_LE(new_seen, 21);
+  EXPECT_GT(old_seen, 1024);
+}
+
+// ---- Flash with ECC program units, failing like real parts ------------------------------------
+
+// One arena for every simulated flash of the sweep (the largest: 2 x 128 KiB with 1-byte units,
+// 512 KiB), so the instantiations do not each keep their own in RAM.
+alignas(std::max_align_t) unsigned char arena[2 * 131072 + 2 * 131072 + 1024];
+
+template <class F>
+F& new_flash() {
+  static_assert(sizeof(F) <= sizeof arena, "the arena holds the largest flash");
+  return *new (arena) F();
+}
+
+// Replays the saves that make the starting state: 0 none, 1 one slot used, 2 both used (the
+// newest a short record).
+template <class F>
+void prepare(F& f, int state) {
+  f.reset();
+  RecordStore s(f);
+  if (state >= 1) {
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+  }
+  if (state >= 2) {
+    ASSERT_EQ(s.save(record(2, false)), Status::kOk);
   }
 }
 
-TEST(RecordStore, PowerCutAtEveryByteLeavesOldOrNew) {
-  static Flash one, two;
-  one = Flash();
-  RecordStore s1(one);
-  ASSERT_EQ(s1.save(record(1)), Status::kOk);  // one slot used, the other erased
-  two = one;
-  RecordStore s2(two);
-  ASSERT_EQ(s2.save(record(2, false)), Status::kOk);  // both used, a short record newest
-  int cases = 0;
-  int old_seen = 0, new_seen = 0;
-  power_cut_everywhere(one, 1, record(10), &old_seen, &new_seen);
-  power_cut_everywhere(two, 2, record(20), &old_seen, &new_seen);
-  power_cut_everywhere(two, 2, record(21, false), &old_seen, &new_seen);
-  cases = old_seen + new_seen;
-  std::printf("%d power cuts: old record read after %d, new after %d\n", cases, old_seen, new_seen);
-  EXPECT_GT(cases, 3000);
-  // The new record is readable only once its commit header is complete: the last 8 byte
-  // operations of the save (and the save's own end) at most.
-  EXPECT_LE(new_seen, 3 * 8 + 3);
-  EXPECT_GE(new_seen, 3);
+struct SweepCounts {
+  int cases = 0, old_seen = 0, new_seen = 0;
+};
+
+// For each starting state and each step of a save: the power is cut in that step (the unit torn
+// as `torn` says), or the step reports a failure although it completed. Afterwards a rebooted
+// store reads the old or the new record (the new one after kOk), no unit was programmed twice,
+// and the next save succeeds and is read back.
+template <class F>
+void sweep(TornReads torn, bool report_instead_of_cut, SweepCounts& counts) {
+  F& f = new_flash<F>();
+  for (int state = 0; state <= 2; ++state) {
+    const std::uint32_t old_id = state == 0 ? 0u : static_cast<std::uint32_t>(state);
+    prepare(f, state);
+    const std::uint32_t before = f.steps();
+    {
+      RecordStore s(f);
+      ASSERT_EQ(s.save(record(30)), Status::kOk);
+    }
+    const std::uint32_t cost = f.steps() - before;
+    ASSERT_GE(cost, 2u);
+    for (std::uint32_t cut = 0; cut < cost; ++cut) {
+      prepare(f, state);
+      f.seed(cut * 7919u + static_cast<std::uint32_t>(state) + 1u);
+      f.set_torn(torn);
+      if (report_instead_of_cut)
+        f.report_failure_at_step(cut);
+      else
+        f.cut_power_at_step(cut);
+      const Status saved = RecordStore(f).save(record(30));
+      f.power_on();
+      RecordStore rebooted(f);
+      CalibrationRecord out;
+      const Status loaded = rebooted.load(out);
+      if (state == 0 && loaded != Status::kOk) {
+        // Nothing was stored before: no record (or the torn slot unreadable) is fine.
+        ASSERT_NE(saved, Status::kOk) << cut;
+        ASSERT_TRUE(loaded == Status::kNoRecord || loaded == Status::kStorageError) << cut;
+      } else {
+        ASSERT_EQ(loaded, Status::kOk) << "state " << state << " step " << cut;
+        ASSERT_TRUE(out.device_id == old_id || out.device_id == 30u)
+            << "state " << state << " step " << cut;
+        if (saved == Status::kOk) {
+          ASSERT_EQ(out.device_id, 30u) << cut;
+        }
+        (out.device_id == 30u ? counts.new_seen : counts.old_seen)++;
+      }
+      ++counts.cases;
+      ASSERT_EQ(rebooted.save(record(31)), Status::kOk)
+          << "state " << state << " step " << cut << " torn " << static_cast<int>(torn)
+          << " report " << report_instead_of_cut << " slots " << to_string(rebooted.slot_status(0))
+          << ", " << to_string(rebooted.slot_status(1));
+      ASSERT_EQ(rebooted.load(out), Status::kOk);
+      ASSERT_EQ(out.device_id, 31u);
+      ASSERT_EQ(RecordStore(f).load(out), Status::kOk);  // and after another reboot
+      ASSERT_EQ(out.device_id, 31u);
+      ASSERT_EQ(f.double_programs(), 0) << cut;
+    }
+  }
+}
+
+template <class F>
+void sweep_all(const char* name) {
+  SweepCounts c;
+  for (TornReads torn : {TornReads::kEccError, TornReads::kArbitrary, TornReads::kWeak}) {
+    sweep<F>(torn, false, c);
+    if (testing::Test::HasFatalFailure()) return;
+  }
+  sweep<F>(TornReads::kEccError, true, c);
+  if (testing::Test::HasFatalFailure()) return;
+  std::printf("%s: %d faults, old record read after %d, new after %d\n", name, c.cases, c.old_seen,
+              c.new_seen);
+  EXPECT_GT(c.old_seen, 0);
+  EXPECT_GT(c.new_seen, 0);
+}
+
+#define IMUCAL_SWEEP(erase, unit)                                                \
+  TEST(RecordStoreFaults, Erase##erase##Unit##unit) {                            \
+    sweep_all<SimEccFlash<2 * (erase), (erase), 256, (unit)>>(#erase "/" #unit); \
+  }
+
+IMUCAL_SWEEP(2048, 1)
+IMUCAL_SWEEP(2048, 8)
+IMUCAL_SWEEP(2048, 16)
+IMUCAL_SWEEP(2048, 32)
+IMUCAL_SWEEP(2048, 256)
+IMUCAL_SWEEP(8192, 1)
+IMUCAL_SWEEP(8192, 8)
+IMUCAL_SWEEP(8192, 16)
+IMUCAL_SWEEP(8192, 32)
+IMUCAL_SWEEP(8192, 256)
+IMUCAL_SWEEP(131072, 1)
+IMUCAL_SWEEP(131072, 8)
+IMUCAL_SWEEP(131072, 16)
+IMUCAL_SWEEP(131072, 32)
+IMUCAL_SWEEP(131072, 256)
+
+using Ecc = SimEccFlash<4096, 2048, 256, 8>;  // STM32L4/G4-like: 8-byte units, 2 KiB pages
+
+TEST(SimEccFlash, RefusesAUnitProgrammedTwiceAndTearsOnPowerCut) {
+  Ecc& f = new_flash<Ecc>();
+  std::uint8_t a[16], out[16];
+  std::memset(a, 0x5A, sizeof a);
+  EXPECT_EQ(f.program(4, a, 8), Status::kInvalidArgument);   // not unit-aligned
+  EXPECT_EQ(f.program(0, a, 12), Status::kInvalidArgument);  // not whole units
+  ASSERT_EQ(f.program(0, a, 16), Status::kOk);
+  EXPECT_EQ(f.program(8, a, 8), Status::kStorageError);  // the second unit again
+  EXPECT_EQ(f.double_programs(), 1);
+  ASSERT_EQ(f.read(0, out, 16), Status::kOk);
+  EXPECT_EQ(out[15], 0x5A);
+  // A cut in the second unit of a program: the first done, the second torn.
+  f.set_torn(TornReads::kEccError);
+  f.cut_power_at_step(1);
+  EXPECT_EQ(f.program(16, a, 16), Status::kStorageError);
+  EXPECT_FALSE(f.powered());
+  EXPECT_EQ(f.read(16, out, 8), Status::kStorageError);  // unpowered
+  f.power_on();
+  ASSERT_EQ(f.read(16, out, 8), Status::kOk);
+  EXPECT_EQ(out[0], 0x5A);
+  EXPECT_EQ(f.read(24, out, 8), Status::kStorageError);  // ECC error
+  EXPECT_EQ(f.read(20, out, 8), Status::kStorageError);  // any read touching it
+  // Weak: the same unit reads differently over a few reads.
+  f.set_torn(TornReads::kWeak);
+  f.cut_power_at_step(0);
+  EXPECT_EQ(f.program(32, a, 8), Status::kStorageError);
+  f.power_on();
+  std::uint8_t first[8];
+  ASSERT_EQ(f.read(32, first, 8), Status::kOk);
+  bool differed = false;
+  for (int k = 0; k < 16 && !differed; ++k) {
+    ASSERT_EQ(f.read(32, out, 8), Status::kOk);
+    differed = std::memcmp(first, out, 8) != 0;
+  }
+  EXPECT_TRUE(differed);
+  // A failure reported for a program that completed.
+  f.report_failure_at_step(0);
+  EXPECT_EQ(f.program(48, a, 8), Status::kStorageError);
+  ASSERT_EQ(f.read(48, out, 8), Status::kOk);
+  EXPECT_EQ(out[7], 0x5A);
+  // Erase clears torn units; a cut erase leaves one torn.
+  ASSERT_EQ(f.erase(0), Status::kOk);
+  ASSERT_EQ(f.read(16, out, 16), Status::kOk);
+  EXPECT_EQ(out[8], 0xFF);
+  f.set_torn(TornReads::kEccError);
+  f.cut_power_at_step(0);
+  EXPECT_EQ(f.erase(2048), Status::kStorageError);
+  f.power_on();
+  int torn = 0;
+  for (std::uint32_t at = 2048; at < 4096; at += 8) torn += f.torn(at) ? 1 : 0;
+  EXPECT_EQ(torn, 1);
+}
+
+// ---- Each way the store used to lose a record --------------------------------------------------
+
+// Wraps a region and fails chosen reads (numbered from 0 since construction or rearm()).
+class FailingReads final : public FlashRegion {
+ public:
+  explicit FailingReads(FlashRegion& f) : f_(f) {}
+  FlashGeometry geometry() const override { return f_.geometry(); }
+  Status read(std::uint32_t offset, std::uint8_t* out, std::uint32_t size) override {
+    const int n = reads_++;
+    if (n >= fail_from_ && n < fail_to_) return Status::kStorageError;
+    if (n == flip_at_ && size > 0) {
+      const Status s = f_.read(offset, out, size);
+      out[size - 1] = static_cast<std::uint8_t>(out[size - 1] ^ 0x01u);
+      return s;
+    }
+    if (on_read_ != nullptr) on_read_(context_);
+    return f_.read(offset, out, size);
+  }
+  Status program(std::uint32_t offset, const std::uint8_t* data, std::uint32_t size) override {
+    return f_.program(offset, data, size);
+  }
+  Status erase(std::uint32_t offset) override {
+    ++erases_;
+    return f_.erase(offset);
+  }
+  void fail(int from, int to) { fail_from_ = from, fail_to_ = to; }
+  void flip(int at) { flip_at_ = at; }
+  void rearm() { reads_ = 0, fail_from_ = fail_to_ = flip_at_ = -1, erases_ = 0; }
+  int reads() const { return reads_; }
+  int erases() const { return erases_; }
+  void on_read(void (*f)(void*), void* context) { on_read_ = f, context_ = context; }
+
+ private:
+  FlashRegion& f_;
+  int reads_ = 0, fail_from_ = -1, fail_to_ = -1, flip_at_ = -1, erases_ = 0;
+  void (*on_read_)(void*) = nullptr;
+  void* context_ = nullptr;
+};
+
+// One slot valid (sequence 5), the other corrupt; the valid one misread during a save. The save
+// must not restart the sequence at 1 (load() would keep the old record, the next save destroy
+// the new one), and must never erase the only good copy.
+TEST(RecordStoreRegression, ASequenceNeverRestartsWhileARecordExists) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    for (std::uint32_t id = 1; id <= 5; ++id) ASSERT_EQ(s.save(record(id)), Status::kOk);
+  }
+  // Slot 0 holds sequence 5; corrupt slot 1's record (sequence 4).
+  f.raw()[2048 + 24 + 40] ^= 0x20;
+  FailingReads r(f);
+  for (int misread = 0; misread < 8; ++misread) {
+    Ecc copy = f;
+    FailingReads rc(copy);
+    rc.rearm();
+    if (misread % 2 == 0)
+      rc.fail(misread, misread + 1);  // one read error
+    else
+      rc.flip(misread);  // one read with a flipped bit
+    RecordStore store(rc);
+    ASSERT_EQ(store.save(record(6)), Status::kOk) << misread;
+    EXPECT_EQ(store.slot_sequence(1), 6u) << misread;
+    CalibrationRecord out;
+    ASSERT_EQ(RecordStore(copy).load(out), Status::kOk);
+    EXPECT_EQ(out.device_id, 6u) << misread;
+    RecordStore again(copy);
+    ASSERT_EQ(again.save(record(7)), Status::kOk);
+    ASSERT_EQ(again.load(out), Status::kOk);
+    EXPECT_EQ(out.device_id, 7u) << misread;
+    EXPECT_EQ(again.slot_sequence(0), 7u) << misread;
+  }
+  // The good slot unreadable for the whole save: nothing is erased, the record survives.
+  r.rearm();
+  r.fail(0, 1000);
+  EXPECT_EQ(RecordStore(r).save(record(6)), Status::kStorageError);
+  EXPECT_EQ(r.erases(), 0);
+  CalibrationRecord out;
+  ASSERT_EQ(RecordStore(f).load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 5u);
+}
+
+// Both slots valid; one misread of the newest during a save must not make the save erase it:
+// with a power cut anywhere in that save, the newest or the new record is read, never the older.
+TEST(RecordStoreRegression, AMisreadNeverErasesTheNewest) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);  // slot 0
+    ASSERT_EQ(s.save(record(2)), Status::kOk);  // slot 1, the newest
+  }
+  static Ecc start;
+  start = f;
+  for (int misread = 0; misread < 6; ++misread) {
+    for (std::uint32_t cut = 0; cut < 80; ++cut) {
+      f = start;
+      FailingReads r(f);
+      if (misread % 2 == 0)
+        r.fail(misread, misread + 1);
+      else
+        r.flip(misread);
+      f.cut_power_at_step(cut);
+      const Status saved = RecordStore(r).save(record(3));
+      f.power_on();
+      CalibrationRecord out;
+      ASSERT_EQ(RecordStore(f).load(out), Status::kOk);
+      ASSERT_TRUE(out.device_id == 2u || out.device_id == 3u)
+          << "misread " << misread << " cut " << cut << ": read " << out.device_id;
+      if (saved == Status::kOk) {
+        ASSERT_EQ(out.device_id, 3u);
+        break;
+      }
+    }
+  }
+}
+
+// The slot kept is read once more right before the other is erased: if it no longer reads as
+// it did, and reading it again does not settle on the same record, nothing is erased; a single
+// misread there passes and the newest record stays.
+TEST(RecordStoreRegression, TheSlotKeptIsRecheckedBeforeTheOtherIsErased) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+    ASSERT_EQ(s.save(record(2)), Status::kOk);
+  }
+  // Reads of a save: each slot read until two reads agree (2 x 2 reads of commit and record),
+  // then the kept slot's commit and record again: reads 8 and 9.
+  FailingReads r(f);
+  {
+    RecordStore probe(r);
+    CalibrationRecord out;
+    ASSERT_EQ(probe.load(out), Status::kOk);
+    ASSERT_EQ(r.reads(), 8);  // 2 slots x 2 reads x (commit + record)
+  }
+  r.rearm();
+  r.fail(8, 1000);  // the kept slot unreadable from then on
+  EXPECT_EQ(RecordStore(r).save(record(3)), Status::kStorageError);
+  EXPECT_EQ(r.erases(), 0);
+  CalibrationRecord out;
+  ASSERT_EQ(RecordStore(f).load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 2u);
+  // A flipped bit in that re-read: read again, the newest (slot 1) is kept, slot 0 written.
+  r.rearm();
+  r.flip(9);
+  RecordStore store(r);
+  ASSERT_EQ(store.save(record(3)), Status::kOk);
+  EXPECT_EQ(store.slot_sequence(1), 2u);
+  EXPECT_EQ(store.slot_sequence(0), 3u);
+  ASSERT_EQ(RecordStore(f).load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 3u);
+}
+
+// A slot left unreadable (a torn unit: ECC error) never hides the other one, for load and save.
+TEST(RecordStoreRegression, AnUnreadableSlotNeverHidesTheGoodOne) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+  }
+  f.set_torn(TornReads::kEccError);
+  f.cut_power_at_step(4);  // in the second slot's record
+  EXPECT_EQ(RecordStore(f).save(record(2)), Status::kStorageError);
+  f.power_on();
+  // The commit is erased, so that slot reads as empty; tear its commit too.
+  f.cut_power_at_step(0);
+  std::uint8_t junk[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+  EXPECT_EQ(f.program(2048, junk, 8), Status::kStorageError);
+  f.power_on();
+  RecordStore store(f);
+  CalibrationRecord out;
+  ASSERT_EQ(store.load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 1u);
+  EXPECT_EQ(store.slot_status(1), Status::kStorageError);
+  ASSERT_EQ(store.save(record(3)), Status::kOk);
+  ASSERT_EQ(store.load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 3u);
+  EXPECT_EQ(store.slot_sequence(1), 2u);
+  // Neither slot readable: save() refuses (either may hold the only record), erases nothing;
+  // erase_all() is the way out.
+  FailingReads r(f);
+  r.fail(0, 1000);
+  EXPECT_EQ(RecordStore(r).save(record(4)), Status::kStorageError);
+  EXPECT_EQ(r.erases(), 0);
+  EXPECT_EQ(RecordStore(r).load(out), Status::kStorageError);
+  r.rearm();
+  RecordStore recovered(r);
+  ASSERT_EQ(recovered.erase_all(), Status::kOk);
+  EXPECT_EQ(recovered.load(out), Status::kNoRecord);
+  ASSERT_EQ(recovered.save(record(5)), Status::kOk);
+}
+
+// After a kOk save, load() returns that record even if one of its reads fails or returns a
+// flipped bit: each slot is read until two reads agree.
+TEST(RecordStoreRegression, OneMisreadInALoadStillReturnsTheNewest) {
+  Ecc& f = new_flash<Ecc>();
+  {
+    RecordStore s(f);
+    ASSERT_EQ(s.save(record(1)), Status::kOk);
+    ASSERT_EQ(s.save(record(2)), Status::kOk);
+  }
+  for (int misread = 0; misread < 12; ++misread) {
+    FailingReads r(f);
+    if (misread % 2 == 0)
+      r.fail(misread, misread + 1);
+    else
+      r.flip(misread);
+    CalibrationRecord out;
+    ASSERT_EQ(RecordStore(r).load(out), Status::kOk) << misread;
+    EXPECT_EQ(out.device_id, 2u) << misread;
+  }
+}
+
+// A save called while another is running on the same store (another task) is refused.
+TEST(RecordStoreRegression, AConcurrentCallIsRefused) {
+  Ecc& f = new_flash<Ecc>();
+  FailingReads r(f);
+  struct Context {
+    RecordStore* store;
+    Status inner = Status::kOk;
+    bool done = false;
+  };
+  RecordStore store(r);
+  Context c{&store};
+  r.on_read(
+      [](void* p) {
+        Context& ctx = *static_cast<Context*>(p);
+        if (ctx.done) return;
+        ctx.done = true;
+        ctx.inner = ctx.store->save(record(99));
+      },
+      &c);
+  ASSERT_EQ(store.save(record(1)), Status::kOk);
+  EXPECT_EQ(c.inner, Status::kStorageBusy);
+  r.on_read(nullptr, nullptr);
+  CalibrationRecord out;
+  ASSERT_EQ(store.load(out), Status::kOk);
+  EXPECT_EQ(out.device_id, 1u);
 }
 
 }  // namespace

@@ -182,8 +182,7 @@ bool temperature_range_ok(float t) { return temperature_ok(true, t); }
 bool temperature_model_ok(const TemperatureModel<float>& t) {
   const bool a = succeeded(t.accel.status), g = succeeded(t.gyro.status);
   return (t.order == 1 || t.order == 2) && (a || g) && t.rests >= 1 && t.rests <= 0xFFFF &&
-         temperature_range_ok(t.reference_c) && temperature_range_ok(t.min_c) &&
-         temperature_range_ok(t.max_c) && t.min_c <= t.max_c &&
+         std::isfinite(t.reference_c) && std::isfinite(t.min_c) && std::isfinite(t.max_c) &&
          (!a || temperature_bias_ok(t.accel, t.order)) &&
          (!g || temperature_bias_ok(t.gyro, t.order));
 }
@@ -195,6 +194,48 @@ bool record_ok(const CalibrationRecord& r) {
          (!(r.parts & kRecordGyro) || gyro_ok(c.gyro)) &&
          (!(r.parts & kRecordMag) || mag_ok(r.mag)) &&
          (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature));
+}
+
+// The section a bound's value lives in.
+Tag bound_tag(Bound b, bool from_temperature_model) {
+  if (from_temperature_model) return kTagTemperature;
+  switch (b) {
+    case Bound::kAccelScale:
+    case Bound::kAccelMisalignment:
+    case Bound::kAccelOffset:
+      return kTagAccel;
+    case Bound::kGyroScale:
+    case Bound::kGyroMisalignment:
+    case Bound::kGyroOffset:
+      return kTagGyro;
+    case Bound::kMagSoftIron:
+    case Bound::kMagOffset:
+    case Bound::kMagField:
+      return kTagMag;
+    default:
+      return kTagInfo;
+  }
+}
+
+Bound record_bound_in(const CalibrationRecord& r, bool* in_temperature_model) {
+  *in_temperature_model = false;
+  const Calibration<float>& c = r.calibration;
+  const bool accel = (r.parts & kRecordAccel) != 0, gyro = (r.parts & kRecordGyro) != 0;
+  if (c.has_temperature && !temperature_plausible(c.temperature_c)) return Bound::kTemperature;
+  if (!sample_rate_ok(c.sample_rate_hz)) return Bound::kSampleRate;
+  Bound b = Bound::kNone;
+  if (accel && (b = accel_bound(c.accel.params)) != Bound::kNone) return b;
+  if (gyro && (b = gyro_bound(c.gyro.params)) != Bound::kNone) return b;
+  if ((r.parts & kRecordMag) &&
+      (b = mag_bound(r.mag.soft_iron, r.mag.hard_iron, r.mag.field_ut)) != Bound::kNone)
+    return b;
+  if (r.parts & kRecordTemperature) {
+    const Matrix3<float> ma = accel_matrix(c.accel.params);
+    const Matrix3<float> mg = gyro_matrix<float>(c.gyro.params);
+    b = temperature_model_bound(r.temperature, accel ? &ma : nullptr, gyro ? &mg : nullptr);
+    *in_temperature_model = b != Bound::kNone;
+  }
+  return b;
 }
 
 // ---- Sections --------------------------------------------------------------------------------
@@ -446,18 +487,24 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t cr
   return ~crc;
 }
 
+Bound record_bound(const CalibrationRecord& r) {
+  bool in_model = false;
+  return record_bound_in(r, &in_model);
+}
+
 template <typename Scalar>
 Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::uint32_t sensor_id,
                    CalibrationRecord& out, const MagCalibration<Scalar>* mag,
-                   const TemperatureModel<Scalar>* temperature) {
+                   const TemperatureModel<Scalar>* temperature, Bound* bound) {
   CalibrationRecord r;
   r.device_id = device_id;
   r.sensor_id = sensor_id;
   Calibration<float>& f = r.calibration;
   f.quality = c.quality;
   f.sample_rate_hz = static_cast<float>(c.sample_rate_hz);
-  f.has_temperature = c.has_temperature;
-  f.temperature_c = c.has_temperature ? static_cast<float>(c.temperature_c) : 0.0f;
+  // A temperature note that is not a plausible temperature is dropped, not the calibration.
+  f.has_temperature = c.has_temperature && temperature_plausible(c.temperature_c);
+  f.temperature_c = f.has_temperature ? static_cast<float>(c.temperature_c) : 0.0f;
   if (succeeded(c.accel.status)) {
     AccelCalibration<float>& a = f.accel;
     if (!to_float<Scalar>(c.accel.params, a.params) || !to_float<Scalar>(c.accel.sigma, a.sigma))
@@ -489,20 +536,24 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
     r.parts = static_cast<std::uint16_t>(r.parts | kRecordTemperature);
   }
   if (!record_ok(r)) return Status::kInvalidArgument;
+  const Bound b = record_bound(r);
+  if (bound != nullptr) *bound = b;
+  if (b != Bound::kNone) return Status::kImplausible;
   out = r;
   return Status::kOk;
 }
 
 template Status make_record<float>(const Calibration<float>&, std::uint32_t, std::uint32_t,
                                    CalibrationRecord&, const MagCalibration<float>*,
-                                   const TemperatureModel<float>*);
+                                   const TemperatureModel<float>*, Bound*);
 template Status make_record<double>(const Calibration<double>&, std::uint32_t, std::uint32_t,
                                     CalibrationRecord&, const MagCalibration<double>*,
-                                    const TemperatureModel<double>*);
+                                    const TemperatureModel<double>*, Bound*);
 
 Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t capacity,
                      std::size_t* size) {
   if (out == nullptr || !record_ok(r)) return Status::kInvalidArgument;
+  if (record_bound(r) != Bound::kNone) return Status::kImplausible;
   const Calibration<float>& c = r.calibration;
   Writer w(out, capacity);
   for (std::uint8_t b : kMagic) w.u8(b);
@@ -551,7 +602,7 @@ Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t 
 }
 
 Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationRecord& out,
-                     std::size_t* error_offset) {
+                     std::size_t* error_offset, Bound* bound) {
   if (data == nullptr) return Status::kInvalidArgument;
   // The header, in the order its fields can be trusted: magic, version, then the length (so a
   // truncation is told from corruption), then the CRC over everything, then the fields.
@@ -580,7 +631,8 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
   // Parts bits of a newer format are allowed: their sections are skipped below.
   r.parts = static_cast<std::uint16_t>(parts & kKnownParts);
 
-  std::uint16_t seen = 0;  // bit per known tag
+  std::uint16_t seen = 0;                          // bit per known tag
+  std::size_t payload_at[kLastKnownTag + 1] = {};  // of each known section
   const std::size_t end = n - kCrcBytes;
   std::size_t at = kRecordHeaderBytes;
   while (at < end) {
@@ -595,6 +647,7 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
     if (tag <= kLastKnownTag && (seen & bit))
       return fail(Status::kRecordBadField, at, error_offset);
     seen = static_cast<std::uint16_t>(seen | bit);
+    if (tag <= kLastKnownTag) payload_at[tag] = payload;
     Reader in(data, payload);
     switch (tag) {
       case kTagInfo:
@@ -640,6 +693,12 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
     return fail(Status::kRecordBadField, 16, error_offset);
   if ((parts & kRecordTemperature) && !(seen & (1u << kTagTemperature)))
     return fail(Status::kRecordBadField, 16, error_offset);
+  // Every value within its physical bounds.
+  bool in_model = false;
+  const Bound b = record_bound_in(r, &in_model);
+  if (bound != nullptr) *bound = b;
+  if (b != Bound::kNone)
+    return fail(Status::kRecordBadField, payload_at[bound_tag(b, in_model)], error_offset);
   out = r;
   return Status::kOk;
 }

@@ -84,6 +84,10 @@ const char* to_string(Status s) {
       return "flash storage error";
     case Status::kStorageVerifyFailed:
       return "flash verify failed (read back differs)";
+    case Status::kStorageBusy:
+      return "record store busy (another call is running)";
+    case Status::kImplausible:
+      return "a calibration value outside its physical bounds";
     case Status::kTooFewSamples:
       return "too few samples";
     case Status::kPoorCoverage:

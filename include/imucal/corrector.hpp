@@ -8,22 +8,36 @@
 //
 // apply() has no branches and no checks: 9 multiply-adds and 3 adds per sensor (instruction
 // count on Cortex-M4F in the README, bench/insn/bench_apply.cpp). A non-finite raw reading gives
-// a non-finite output there; apply_checked() refuses it instead. A sensor without a usable
-// calibration passes through unchanged (M = I, c = 0) and parts() says so. Never allocates.
+// a non-finite output there; apply_checked() refuses it instead, and never returns kOk with a
+// non-finite result. A sensor without a usable calibration passes through unchanged (M = I,
+// c = 0) and parts() says so. Never allocates.
+//
+// Every value is checked against its physical bounds (plausibility.hpp) before it is loaded: a
+// calibration with a part out of bounds is refused whole (kImplausible, bound() says which; a
+// NaN or infinity: kNonFiniteInput) and the corrector keeps what it had.
 //
 // With a temperature model (temperature_model.hpp), the biases follow the temperature:
 // set_temperature(T) recomputes c_a and c_w from b(T) (clamped to the temperatures the model was
 // fitted over: it is not extrapolated). Call it when the temperature changes (it costs about
 // as much as two samples), so the per-sample path stays the same.
+//
+// Threads and interrupts: the const members (apply(), apply_checked(), accel(), ...) only read;
+// set...() write. Any number of readers may run together, but no reader while a writer runs on
+// the same object: a sample applied in an interrupt while a task calls set() or
+// set_temperature() can mix the old and the new calibration. To swap the calibration while an
+// interrupt applies it, keep two correctors and publish the index of the one to use (no lock in
+// the interrupt): CorrectorSwap below; the pattern is in docs/corrector_swap.md.
 #pragma once
 
 #include <Eigen/Core>
+#include <atomic>
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"
 #include "imucal/calibrator.hpp"
 #include "imucal/gyro_model.hpp"
 #include "imucal/mag_model.hpp"
+#include "imucal/plausibility.hpp"
 #include "imucal/record.hpp"
 #include "imucal/status.hpp"
 #include "imucal/temperature_model.hpp"
@@ -46,57 +60,72 @@ class Corrector {
     temperature_ = TemperatureModel<Scalar>{};
     temperature_c_ = Scalar(0);
     parts_ = 0;
+    bound_ = Bound::kNone;
   }
 
-  // Loads the usable parts (succeeded status, finite values); the others pass through.
-  // kOk if at least one part was loaded; otherwise why not (the accelerometer's status, or
-  // kNonFiniteInput for a "succeeded" part holding a NaN). Returns kOk with parts() telling
-  // which sensors are calibrated.
+  // Loads the usable parts (succeeded status); the others pass through. kOk if at least one part
+  // was loaded, with parts() telling which sensors are calibrated; otherwise why not (the
+  // accelerometer's status). A usable part with a value out of its physical bounds refuses the
+  // whole calibration: kNonFiniteInput (NaN, infinity) or kImplausible, bound() naming the
+  // bound, and the corrector unchanged.
   template <typename From>
   Status set(const Calibration<From>& c) {
-    clear();
-    Status why = succeeded(c.accel.status) ? Status::kOk : c.accel.status;
-    if (succeeded(c.accel.status)) {
+    const bool a = succeeded(c.accel.status), g = succeeded(c.gyro.status);
+    Bound b = a ? accel_bound(c.accel.params) : Bound::kNone;
+    if (b == Bound::kNone && g) b = gyro_bound(c.gyro.params);
+    if (b != Bound::kNone) return refuse(b);
+    if (!a && !g) return c.accel.status == Status::kOk ? Status::kNotStarted : c.accel.status;
+    Corrector next;
+    if (a) {
       const AccelVector<From>& p = c.accel.params;
-      const Matrix3<From> m = accel_matrix(p);
-      const Vector3<From> b(p(kBiasX), p(kBiasY), p(kBiasZ));
-      if (load(m, b, acc_m_, acc_c_))
-        parts_ = static_cast<std::uint16_t>(parts_ | kRecordAccel);
-      else
-        why = Status::kNonFiniteInput;
+      const Vector3<From> bias(p(kBiasX), p(kBiasY), p(kBiasZ));
+      if (!load(accel_matrix(p), bias, next.acc_m_, next.acc_c_)) return refuse(Bound::kNonFinite);
+      next.parts_ = static_cast<std::uint16_t>(next.parts_ | kRecordAccel);
     }
-    if (succeeded(c.gyro.status)) {
+    if (g) {
       const GyroVector<From>& p = c.gyro.params;
-      const Matrix3<From> m = gyro_matrix<From>(p);
-      const Vector3<From> b(p(kGyroBiasX), p(kGyroBiasY), p(kGyroBiasZ));
-      if (load(m, b, gyro_m_, gyro_c_))
-        parts_ = static_cast<std::uint16_t>(parts_ | kRecordGyro);
-      else if (why == Status::kOk)
-        why = Status::kNonFiniteInput;
+      const Vector3<From> bias(p(kGyroBiasX), p(kGyroBiasY), p(kGyroBiasZ));
+      if (!load(gyro_matrix<From>(p), bias, next.gyro_m_, next.gyro_c_))
+        return refuse(Bound::kNonFinite);
+      next.parts_ = static_cast<std::uint16_t>(next.parts_ | kRecordGyro);
     }
-    return parts_ != 0 ? Status::kOk : (why == Status::kOk ? Status::kNotStarted : why);
+    *this = next;
+    return Status::kOk;
   }
-  // Everything a record holds: accelerometer, gyro, magnetometer, temperature model. Without a
-  // set_temperature() call the biases are those at the model's reference temperature.
+  // Everything a record holds: accelerometer, gyro, magnetometer, temperature model, all checked
+  // before any is loaded. Without a set_temperature() call the biases are those at the model's
+  // reference temperature.
   Status set(const CalibrationRecord& r) {
-    const Status s = set(r.calibration);
-    if (s != Status::kOk) return s;
-    if (r.parts & kRecordMag) set_mag(r.mag);
-    if (r.parts & kRecordTemperature) set_temperature_model(r.temperature);
+    Corrector next;
+    Status s = next.set(r.calibration);
+    if (s == Status::kOk && (r.parts & kRecordMag)) s = next.set_mag(r.mag);
+    if (s == Status::kOk && (r.parts & kRecordTemperature)) {
+      s = next.set_temperature_model(r.temperature);
+      if (s == Status::kNotStarted) s = Status::kOk;  // a model for sensors not in the record
+    }
+    if (s != Status::kOk) {
+      bound_ = next.bound_;
+      return s;
+    }
+    *this = next;
     return Status::kOk;
   }
 
-  // The magnetometer's calibration (m_cal = S (m_raw + h)); refused unless usable and finite.
+  // The magnetometer's calibration (m_cal = S (m_raw + h)); refused unless usable and within
+  // bounds (the corrector unchanged).
   template <typename From>
   Status set_mag(const MagCalibration<From>& m) {
     if (!succeeded(m.status)) return m.status;
-    if (!load(m.soft_iron, m.hard_iron, mag_m_, mag_c_)) return Status::kNonFiniteInput;
+    const Bound b = mag_bound(m.soft_iron, m.hard_iron, m.field_ut);
+    if (b != Bound::kNone) return refuse(b);
+    if (!load(m.soft_iron, m.hard_iron, mag_m_, mag_c_)) return refuse(Bound::kNonFinite);
     parts_ = static_cast<std::uint16_t>(parts_ | kRecordMag);
     return Status::kOk;
   }
 
   // The temperature model of the biases, for the sensors already set (set() first). The biases
-  // become those at its reference temperature until set_temperature() is called.
+  // become those at its reference temperature until set_temperature() is called. Refused (the
+  // corrector unchanged) if a value is out of its bounds, checked through the sensors' matrices.
   template <typename From>
   Status set_temperature_model(const TemperatureModel<From>& t) {
     const bool a = succeeded(t.accel.status) && (parts_ & kRecordAccel);
@@ -111,22 +140,38 @@ class Corrector {
     if (a) m.accel = cast_bias(t.accel);
     if (g) m.gyro = cast_bias(t.gyro);
     if ((a && !succeeded(m.accel.status)) || (g && !succeeded(m.gyro.status)))
-      return Status::kNonFiniteInput;
-    if (!(m.min_c <= m.max_c) || !(m.reference_c == m.reference_c)) return Status::kInvalidArgument;
+      return refuse(Bound::kNonFinite);
+    const Bound b = temperature_model_bound(m, a ? &acc_m_ : nullptr, g ? &gyro_m_ : nullptr);
+    if (b != Bound::kNone) return refuse(b);
+    const TemperatureModel<Scalar> previous = temperature_;
+    const Scalar previous_c = temperature_c_;
+    const std::uint16_t previous_parts = parts_;
     temperature_ = m;
     parts_ = static_cast<std::uint16_t>(parts_ | kRecordTemperature);
-    return set_temperature(m.reference_c);
+    const Status s = set_temperature(m.reference_c);
+    if (s != Status::kOk) {
+      temperature_ = previous;
+      temperature_c_ = previous_c;
+      parts_ = previous_parts;
+    }
+    return s;
   }
 
   // The biases at temperature t (deg C), clamped to the model's range. kNonFiniteInput for a NaN
-  // (the previous biases stay); kNotStarted without a model.
+  // or an infinity (the previous biases stay); kNotStarted without a model. Never kOk with a
+  // non-finite offset (kImplausible, the previous biases kept).
   Status set_temperature(Scalar t) {
     if (!(parts_ & kRecordTemperature)) return Status::kNotStarted;
-    if (!(t == t)) return Status::kNonFiniteInput;
+    if (!bounds::finite(t)) return Status::kNonFiniteInput;
     const TemperatureModel<Scalar>& m = temperature_;
     t = t < m.min_c ? m.min_c : (t > m.max_c ? m.max_c : t);
-    if (succeeded(m.accel.status)) acc_c_.noalias() = acc_m_ * m.accel.at(t, m.reference_c);
-    if (succeeded(m.gyro.status)) gyro_c_.noalias() = gyro_m_ * m.gyro.at(t, m.reference_c);
+    Vector3<Scalar> ca = acc_c_, cg = gyro_c_;
+    if (succeeded(m.accel.status)) ca.noalias() = acc_m_ * m.accel.at(t, m.reference_c);
+    if (succeeded(m.gyro.status)) cg.noalias() = gyro_m_ * m.gyro.at(t, m.reference_c);
+    if (!bounds::all_finite(ca)) return refuse(Bound::kAccelOffset);
+    if (!bounds::all_finite(cg)) return refuse(Bound::kGyroOffset);
+    acc_c_ = ca;
+    gyro_c_ = cg;
     temperature_c_ = t;
     return Status::kOk;
   }
@@ -142,16 +187,21 @@ class Corrector {
   Vector3<Scalar> gyro(const Vector3<Scalar>& raw) const { return affine(gyro_m_, raw, gyro_c_); }
   Vector3<Scalar> mag(const Vector3<Scalar>& raw) const { return affine(mag_m_, raw, mag_c_); }
 
-  // As apply(), but a non-finite raw reading is refused (kNonFiniteInput, outputs untouched).
+  // As apply(), but a raw reading that is not finite, or so large that the result is not, is
+  // refused (kNonFiniteInput, outputs untouched): never kOk with a NaN or an infinity.
   Status apply_checked(const Vector3<Scalar>& acc_raw, const Vector3<Scalar>& gyro_raw,
                        Vector3<Scalar>& acc, Vector3<Scalar>& gyro) const {
-    const Scalar nan_if_any = (acc_raw - acc_raw).sum() + (gyro_raw - gyro_raw).sum();
-    if (!(nan_if_any == Scalar(0))) return Status::kNonFiniteInput;
-    apply(acc_raw, gyro_raw, acc, gyro);
+    Vector3<Scalar> a, w;
+    apply(acc_raw, gyro_raw, a, w);
+    // A NaN or infinity in a raw reading reaches the result (finite M: Inf * 0 is NaN).
+    if (!((a - a).sum() + (w - w).sum() == Scalar(0))) return Status::kNonFiniteInput;
+    acc = a;
+    gyro = w;
     return Status::kOk;
   }
 
   std::uint16_t parts() const { return parts_; }  // RecordPart bits: the calibrated sensors
+  Bound bound() const { return bound_; }          // the bound the last refused set...() call broke
   const Matrix3<Scalar>& accel_matrix_used() const { return acc_m_; }
   const Vector3<Scalar>& accel_offset() const { return acc_c_; }
   const Matrix3<Scalar>& gyro_matrix_used() const { return gyro_m_; }
@@ -160,6 +210,11 @@ class Corrector {
   const Vector3<Scalar>& mag_offset() const { return mag_c_; }
 
  private:
+  Status refuse(Bound b) {
+    bound_ = b;
+    return b == Bound::kNonFinite ? Status::kNonFiniteInput : Status::kImplausible;
+  }
+
   // c = M b in the calibration's own precision (M a_raw and c nearly cancel on raw counts),
   // then rounded once; refused (nothing changed) unless every entry is finite.
   template <typename From>
@@ -212,6 +267,40 @@ class Corrector {
   TemperatureModel<Scalar> temperature_{};
   Scalar temperature_c_ = Scalar(0);
   std::uint16_t parts_ = 0;
+  Bound bound_ = Bound::kNone;
+};
+
+// Two correctors and the index of the one in use, for a calibration that changes while an
+// interrupt applies it (docs/corrector_swap.md). The interrupt calls active() once per sample
+// and applies that corrector; a task prepares the other one (spare(), or prepare() for a copy of
+// the active one, e.g. to set_temperature()) and then publish()es it. The interrupt takes no lock
+// and never sees a corrector being written: the task writes only the spare, and a sample that
+// began on the old corrector finishes before the task runs again (an interrupt runs to
+// completion on the core it preempts). One writer task; readers only in interrupts of that core
+// (or in tasks that cannot be preempted by the writer between active() and the end of a sample).
+template <typename Scalar>
+class CorrectorSwap {
+ public:
+  // Interrupt side: the corrector to apply to this sample.
+  const Corrector<Scalar>& active() const {
+    return slot_[active_.load(std::memory_order_acquire) & 1u];
+  }
+  // Task side: the corrector not in use, to set(); then publish().
+  Corrector<Scalar>& spare() { return slot_[1u - (active_.load(std::memory_order_relaxed) & 1u)]; }
+  // Task side: the spare, holding a copy of the active corrector.
+  Corrector<Scalar>& prepare() {
+    Corrector<Scalar>& s = spare();
+    s = active();
+    return s;
+  }
+  // Task side: the spare becomes the active corrector for every sample that starts from now.
+  void publish() {
+    active_.store(1u - (active_.load(std::memory_order_relaxed) & 1u), std::memory_order_release);
+  }
+
+ private:
+  Corrector<Scalar> slot_[2];
+  std::atomic<unsigned> active_{0};
 };
 
 }  // namespace imucal

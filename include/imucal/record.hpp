@@ -53,6 +53,7 @@
 #include "imucal/calibrator.hpp"
 #include "imucal/gyro_calibration.hpp"
 #include "imucal/mag_model.hpp"
+#include "imucal/plausibility.hpp"
 #include "imucal/status.hpp"
 #include "imucal/temperature_model.hpp"
 
@@ -88,23 +89,35 @@ struct CalibrationRecord {
 // and, if given and usable, the magnetometer's calibration and the temperature model (a model
 // with neither sensor usable is left out). kInvalidArgument if no part is usable or a value
 // does not fit the format (counts above 65535, a non-positive scale, a negative sigma,
-// non-finite values, a temperature model of another order than 1 or 2).
+// non-finite values, a temperature model of another order than 1 or 2); kImplausible if a value
+// is outside its physical bounds (plausibility.hpp), *bound (if given) saying which. The
+// temperature at calibration is a note, not a parameter: one that is not finite or outside
+// -100..200 degC is recorded as unknown (has_temperature false) rather than losing the
+// calibration.
 template <typename Scalar>
 Status make_record(const Calibration<Scalar>& calibration, std::uint32_t device_id,
                    std::uint32_t sensor_id, CalibrationRecord& out,
                    const MagCalibration<Scalar>* mag = nullptr,
-                   const TemperatureModel<Scalar>* temperature = nullptr);
+                   const TemperatureModel<Scalar>* temperature = nullptr, Bound* bound = nullptr);
+
+// The first physical bound (plausibility.hpp) a record's parts break, kNone if none: the
+// accelerometer, the gyro, the magnetometer, then the temperature model (its biases through
+// the matrices of the sensors in the record).
+Bound record_bound(const CalibrationRecord& record);
 
 // Writes the record into out[0, capacity); *size receives its length. kInvalidArgument for an
-// inconsistent record (the checks of decode_record), kCapacityExceeded if it does not fit.
+// inconsistent record (the checks of decode_record), kImplausible for a value outside its
+// physical bounds (record_bound() says which), kCapacityExceeded if it does not fit.
 Status encode_record(const CalibrationRecord& record, std::uint8_t* out, std::size_t capacity,
                      std::size_t* size);
 
 // Reads a record from data[0, size) (bytes after the record's own length are ignored, as in a
 // flash slot). On success `out` holds it; otherwise `out` is unchanged and, if error_offset is
-// given, it receives the offset of the first byte found wrong (for a CRC mismatch: N - 4).
+// given, it receives the offset of the first byte found wrong (for a CRC mismatch: N - 4). A
+// value outside its physical bounds is kRecordBadField at its section's payload, *bound (if
+// given) saying which bound.
 Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationRecord& out,
-                     std::size_t* error_offset = nullptr);
+                     std::size_t* error_offset = nullptr, Bound* bound = nullptr);
 
 // CRC-32 (IEEE 802.3, reflected 0xEDB88320, as zlib's crc32()); `crc` continues a previous
 // value (start with 0). Table-free nibble loop: 64 bytes of constants.

@@ -52,6 +52,8 @@ enum class Status : std::uint8_t {
   kNoRecord,             // no valid record in the store (empty, erased or both slots corrupt)
   kStorageError,         // the flash port failed (read, program, erase, or power lost)
   kStorageVerifyFailed,  // the record read back differs from the one written
+  kStorageBusy,          // another call is using the record store: nothing was done
+  kImplausible,          // a calibration value outside its physical bounds (which: bound_name)
   // Magnetometer (mag_calibration.hpp) and temperature (temperature_fit.hpp) fits.
   kTooFewSamples,         // fewer samples (or rests) than the fit needs
   kPoorCoverage,          // the directions held do not cover enough of the sphere

@@ -14,8 +14,7 @@ void FileFlash::close() {
 
 Status FileFlash::open(const char* path, FlashGeometry g) {
   close();
-  if (path == nullptr || g.size == 0 || g.erase_size == 0 || g.page_size == 0 ||
-      g.size % g.erase_size != 0 || g.erase_size % g.page_size != 0)
+  if (path == nullptr || !flash_geometry_nests(g) || g.page_size > kMaxPage)
     return Status::kInvalidArgument;
   file_ = std::fopen(path, "r+b");
   if (file_ == nullptr) {
@@ -51,12 +50,12 @@ Status FileFlash::read(std::uint32_t offset, std::uint8_t* out, std::uint32_t si
 
 Status FileFlash::program(std::uint32_t offset, const std::uint8_t* data, std::uint32_t size) {
   if (file_ == nullptr) return Status::kStorageError;
+  const std::uint32_t unit = geometry_.program_unit;
   if (data == nullptr || !flash_range_ok(geometry_.size, offset, size) ||
-      size > geometry_.page_size ||
+      size > geometry_.page_size || offset % unit != 0 || size % unit != 0 ||
       (size > 0 && offset / geometry_.page_size != (offset + size - 1) / geometry_.page_size))
     return Status::kInvalidArgument;
-  std::uint8_t page[4096];
-  if (size > sizeof page) return Status::kInvalidArgument;
+  std::uint8_t page[kMaxPage];
   Status s = read(offset, page, size);
   if (s != Status::kOk) return s;
   for (std::uint32_t i = 0; i < size; ++i) page[i] = static_cast<std::uint8_t>(page[i] & data[i]);

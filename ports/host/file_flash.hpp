@@ -1,9 +1,11 @@
 // ports/host/file_flash.hpp: a flash region backed by a file on the host (the `imucal` tool,
 // tests, a desktop build of the firmware). The file holds the region's bytes and behaves as NOR
-// flash: erase writes 0xFF over an erase unit, program ANDs the bits in, a program call may not
-// cross a page. Every operation is flushed before it returns. Host only (stdio).
+// flash: erase writes 0xFF over an erase unit, program ANDs the bits in, a program call writes
+// whole program units and may not cross a page (of at most 4096 bytes). Every operation is
+// flushed before it returns. Host only (stdio).
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 
 #include "imucal/port/flash_region.hpp"
@@ -12,13 +14,16 @@ namespace imucal {
 
 class FileFlash final : public FlashRegion {
  public:
+  static constexpr std::uint32_t kMaxPage = 4096;
+
   FileFlash() = default;
   ~FileFlash();
   FileFlash(const FileFlash&) = delete;
   FileFlash& operator=(const FileFlash&) = delete;
 
   // Opens `path`, creating it erased (all 0xFF) if it does not exist. kInvalidArgument for a
-  // geometry that does not nest or a file of another size; kStorageError if it cannot be opened.
+  // geometry that does not nest (flash_geometry_nests()), a page above kMaxPage or a file of
+  // another size; kStorageError if it cannot be opened.
   Status open(const char* path, FlashGeometry geometry);
   void close();
 

@@ -1,13 +1,20 @@
 // libFuzzer target: the calibration record decoder and the two-slot store over arbitrary flash
 // contents. Whatever the bytes: no crash, no read outside them (ASan), and a record that decodes
-// holds only finite values, re-encodes, and decodes again to the same values; a store over any
-// flash contents loads without crashing, and a save then load returns the saved record. Built
+// holds only finite values within their physical bounds, re-encodes, and decodes again to the
+// same values; a store over any flash contents loads without crashing, and a save then load
+// returns the saved record. Then the same contents on a flash with ECC program units that fails
+// and changes between reads (sim_ecc_flash.hpp), the fault chosen from the input: a power cut at
+// some step of a save (the unit torn as an ECC error, arbitrary bits or a weak bit), a failure
+// reported for a step that completed, misreads. Afterwards the record read before the save or
+// the saved one is read (the saved one if the save said kOk), and the next save succeeds. Built
 // and run by tools/fuzz.sh.
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
+#include "imucal/port/sim_ecc_flash.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
 #include "imucal/record.hpp"
 #include "imucal/record_store.hpp"
@@ -16,9 +23,12 @@ namespace {
 
 using namespace imucal;
 
-void check(bool ok) {
-  if (!ok) std::abort();
+void check_at(bool ok, int line) {
+  if (ok) return;
+  std::fprintf(stderr, "fuzz_record.cpp:%d: check failed\n", line);
+  std::abort();
 }
+#define check(ok) check_at((ok), __LINE__)
 
 template <class V>
 bool finite(const V& v) {
@@ -57,6 +67,66 @@ bool same(const CalibrationRecord& a, const CalibrationRecord& b) {
 }
 
 SimNorFlash<2048, 1024, 64> flash;
+SimEccFlash<2048, 1024, 256, 8> ecc;
+
+// A record that is always valid, for saving over contents that decode to nothing.
+CalibrationRecord fallback_record() {
+  CalibrationRecord r;
+  r.device_id = 0xF00D;
+  r.parts = kRecordAccel;
+  r.calibration.accel.params << 0.001f, 0.0f, 0.0f, 0.0024f, 0.0024f, 0.0024f, -3.0f, 2.0f, 1.0f;
+  r.calibration.accel.poses = 12;
+  r.calibration.accel.status = Status::kOk;
+  return r;
+}
+
+// The store over these contents on the failing flash: see the file comment.
+void faulty_flash(const std::uint8_t* data, std::size_t size, const CalibrationRecord* decoded) {
+  const std::uint32_t h = crc32(data, size);
+  ecc.reset();
+  std::memcpy(ecc.raw(), data, size < 2048 ? size : 2048);
+  ecc.seed(h | 1u);
+  ecc.set_torn(static_cast<TornReads>(h % 3u));
+  CalibrationRecord before;
+  Status had = RecordStore(ecc).load(before);
+  check(had == Status::kOk || had == Status::kNoRecord || had == Status::kStorageError);
+  // A record saved cleanly over the contents first (one slot then holds it) when none loads.
+  if (had != Status::kOk && (h & 0x20000u) != 0) {
+    check(RecordStore(ecc).save(fallback_record()) == Status::kOk);
+    had = RecordStore(ecc).load(before);
+    check(had == Status::kOk && same(before, fallback_record()));
+  }
+  const CalibrationRecord r = decoded != nullptr ? *decoded : fallback_record();
+  const std::uint32_t step = (h >> 4) % 48u;
+  switch ((h >> 10) % 4u) {
+    case 0:
+      ecc.cut_power_at_step(step);
+      break;
+    case 1:
+      ecc.report_failure_at_step(step);
+      break;
+    case 2:
+      ecc.fail_next_reads(static_cast<int>((h >> 12) % 3u) + 1);
+      break;
+    default:
+      ecc.flip_next_reads(static_cast<int>((h >> 12) % 3u) + 1);
+      break;
+  }
+  const Status saved = RecordStore(ecc).save(r);
+  ecc.power_on();
+  ecc.fail_next_reads(0);
+  ecc.flip_next_reads(0);
+  check(ecc.double_programs() == 0);
+  CalibrationRecord after;
+  const Status loaded = RecordStore(ecc).load(after);
+  if (saved == Status::kOk) check(loaded == Status::kOk && same(after, r));
+  if (had == Status::kOk) check(loaded == Status::kOk && (same(after, before) || same(after, r)));
+  // The next save succeeds unless neither slot could be trusted before (then nothing is erased).
+  RecordStore next(ecc);
+  const Status again = next.save(r);
+  if (had == Status::kOk || saved == Status::kOk) check(again == Status::kOk);
+  if (again == Status::kOk) check(next.load(after) == Status::kOk && same(after, r));
+}
 
 }  // namespace
 
@@ -69,6 +139,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(finite(c.accel.params) && finite(c.accel.sigma) && finite(c.gyro.params) &&
           finite(c.gyro.sigma) && std::isfinite(c.temperature_c) &&
           std::isfinite(c.sample_rate_hz));
+    check(record_bound(r) == Bound::kNone);
     if (r.parts & kRecordMag)
       check(finite(r.mag.soft_iron.reshaped()) && finite(r.mag.hard_iron) &&
             r.mag.soft_iron.determinant() > 0.0f && std::isfinite(r.mag.field_ut));
@@ -100,5 +171,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     CalibrationRecord back;
     check(store.load(back) == Status::kOk && same(r, back));
   }
+  faulty_flash(data, size, s == Status::kOk && r.parts != 0 ? &r : nullptr);
   return 0;
 }

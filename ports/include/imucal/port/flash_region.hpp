@@ -1,16 +1,24 @@
-// imucal/port/flash_region.hpp: the storage port. A small region of NOR-like flash that the
-// record store (imucal/record_store.hpp) keeps calibration records in. The firmware implements
-// it over its flash driver; ports/ has a simulated NOR flash (sim_nor_flash.hpp, any target) and
-// a file-backed one (ports/host/file_flash.hpp, host). Implementations must not allocate or
-// throw; they may block for the duration of one erase or program operation.
+// imucal/port/flash_region.hpp: the storage port. A small region of flash that the record store
+// (imucal/record_store.hpp) keeps calibration records in. The firmware implements it over its
+// flash driver; ports/ has simulated flashes (sim_nor_flash.hpp: byte-programmable NOR;
+// sim_ecc_flash.hpp: program units with ECC that fail like real parts; both any target) and a
+// file-backed one (ports/host/file_flash.hpp, host). Implementations must not allocate or throw;
+// they may block for the duration of one erase or program operation.
 //
-// The semantics the store relies on (those of NOR flash):
+// The semantics the store relies on:
 //   - erase(offset) sets one whole erase unit (erase_size bytes, offset aligned) to 0xFF;
-//   - program(offset, data, n) can only clear bits (new = old AND data), and one call never
-//     crosses a page boundary (page_size bytes);
+//   - program(offset, data, n) writes whole program units (program_unit bytes, offset and n
+//     multiples of it) and never crosses a page boundary (page_size bytes, the most one call
+//     writes); on NOR flash it can only clear bits;
 //   - read(offset, out, n) reads any range inside the region.
 // Each returns kOk, kInvalidArgument (out of range, misaligned, crossing a page) or
-// kStorageError (the device failed, or power was lost during the operation).
+// kStorageError (the device failed, an ECC error on read, or power was lost during the
+// operation).
+//
+// Many MCU flashes program in fixed units with ECC and forbid programming a unit twice between
+// erases (STM32L4/G4: 8 bytes, STM32U5: 16, STM32H7: 32); a unit whose programming was cut by a
+// power loss may read back as an ECC error, as arbitrary bits, or differently on two reads. The
+// store programs every unit at most once per erase and never relies on `program_twice`.
 #pragma once
 
 #include <cstdint>
@@ -20,9 +28,11 @@
 namespace imucal {
 
 struct FlashGeometry {
-  std::uint32_t size = 0;        // bytes in the region
-  std::uint32_t erase_size = 0;  // erase unit (sector), divides size
-  std::uint32_t page_size = 0;   // program unit, divides erase_size
+  std::uint32_t size = 0;          // bytes in the region
+  std::uint32_t erase_size = 0;    // erase unit (sector), divides size
+  std::uint32_t page_size = 0;     // the most one program call writes, divides erase_size
+  std::uint32_t program_unit = 1;  // smallest programmable unit (1..256), divides page_size
+  bool program_twice = true;       // a unit may be programmed again before an erase (bits AND)
 };
 
 class FlashRegion {
@@ -42,6 +52,14 @@ class FlashRegion {
 // Whether [offset, offset + size) lies inside a region of `region` bytes (overflow-safe).
 inline bool flash_range_ok(std::uint32_t region, std::uint32_t offset, std::uint32_t size) {
   return offset <= region && size <= region - offset;
+}
+
+// Whether the units nest (program unit | page | erase unit | size, none zero, program unit at
+// most 256 bytes). No division by zero, no overflow for any values.
+inline bool flash_geometry_nests(const FlashGeometry& g) {
+  return g.program_unit >= 1 && g.program_unit <= 256 && g.page_size != 0 &&
+         g.page_size % g.program_unit == 0 && g.erase_size != 0 &&
+         g.erase_size % g.page_size == 0 && g.size != 0 && g.size % g.erase_size == 0;
 }
 
 }  // namespace imucal

@@ -21,7 +21,7 @@ class SimNorFlash final : public FlashRegion {
 
   SimNorFlash() { std::memset(bytes_, 0xFF, sizeof bytes_); }
 
-  FlashGeometry geometry() const override { return {Size, EraseSize, PageSize}; }
+  FlashGeometry geometry() const override { return {Size, EraseSize, PageSize, 1, true}; }
 
   Status read(std::uint32_t offset, std::uint8_t* out, std::uint32_t size) override {
     if (!powered_) return Status::kStorageError;
