@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
-#include <utility>
 
 #include "imucal/status.hpp"
 
@@ -30,35 +29,6 @@ inline bool all_finite(const Eigen::MatrixBase<Derived>& m) {
 template <typename Scalar, int N>
 constexpr Scalar min_pivot_ratio() {
   return Scalar(100) * Scalar(N) * std::numeric_limits<Scalar>::epsilon();
-}
-
-// Solves A x = b with the LDL^T factors of A (P A P^T = L D L^T), as Eigen's LDLT::solve does
-// but in plain loops over fixed-size vectors: Eigen's triangular solve above 8 unknowns goes
-// through a stack-or-heap temporary whose release links free() at -Os. The caller has checked
-// that every pivot is positive.
-template <typename Scalar, int N>
-Eigen::Matrix<Scalar, N, 1> ldlt_solve(const Eigen::LDLT<Eigen::Matrix<Scalar, N, N>>& ldlt,
-                                       const Eigen::Matrix<Scalar, N, 1>& b) {
-  const Eigen::Matrix<Scalar, N, N>& lu = ldlt.matrixLDLT();  // L below the diagonal, D on it
-  const auto& t = ldlt.transpositionsP().indices();
-  Eigen::Matrix<Scalar, N, 1> x = b;
-  for (int k = 0; k < N; ++k) {  // x = P b
-    const int j = static_cast<int>(t(k));
-    if (j != k) std::swap(x(k), x(j));
-  }
-  for (int c = 0; c < N; ++c)  // x = L^-1 x (unit diagonal), column by column
-    for (int r = c + 1; r < N; ++r) x(r) -= lu(r, c) * x(c);
-  for (int i = 0; i < N; ++i) x(i) /= lu(i, i);  // x = D^-1 x
-  for (int r = N - 1; r >= 0; --r) {             // x = L^-T x, row by row from the bottom
-    Scalar s = Scalar(0);
-    for (int c = r + 1; c < N; ++c) s += lu(c, r) * x(c);
-    x(r) -= s;
-  }
-  for (int k = N - 1; k >= 0; --k) {  // x = P^T x
-    const int j = static_cast<int>(t(k));
-    if (j != k) std::swap(x(k), x(j));
-  }
-  return x;
 }
 
 template <typename Scalar, int N>
@@ -129,7 +99,7 @@ class NormalEquations {
     const Status s = factor(lambda, scale, ldlt);
     if (s != Status::kOk) return s;
     Vector rhs = -(scale.cwiseProduct(v_));
-    Vector x = ldlt_solve(ldlt, rhs);
+    Vector x = ldlt.solve(rhs);
     x = scale.cwiseProduct(x);
     if (!all_finite(x)) return Status::kIllConditioned;
     delta = x;
@@ -221,7 +191,7 @@ class NormalEquations {
     for (int c = 0; c < N; ++c) {
       Vector unit = Vector::Zero();
       unit(c) = Scalar(1);
-      const Vector column = ldlt_solve(ldlt, unit);
+      const Vector column = ldlt.solve(unit);
       f(c, Vector(variance * scale(c) * scale.cwiseProduct(column)));
     }
     return Status::kOk;
