@@ -105,7 +105,8 @@ TEST_F(StreamFaults, CleanStreamHasNoCounts) {
   EXPECT_EQ(count(clean().statuses, Status::kOk), static_cast<int>(clean().statuses.size()));
   const StreamCounts& c = clean().before_solve.stream;
   EXPECT_EQ(c.non_finite + c.accel_saturated + c.gyro_saturated + c.frozen + c.time_repeated +
-                c.time_backwards + c.clock_resets + c.gaps + c.rate_off,
+                c.time_backwards + c.clock_resets + c.gaps + c.rate_off + c.glitches +
+                c.temperature_bad,
             0u);
   ASSERT_TRUE(succeeded(clean().solved));
 }
@@ -131,6 +132,70 @@ TEST_F(StreamFaults, NonFiniteReadingsAreRefusedAndCounted) {
   EXPECT_EQ(o.before_solve.poses, clean().before_solve.poses);
   EXPECT_EQ(o.before_solve.moves, clean().before_solve.moves);
   expect_calibrated(o, r());
+}
+
+// A temperature of +-Inf or an absurd finite value is ignored (the sample is taken) and
+// counted; the calibration's mean temperature is that of the good readings.
+TEST_F(StreamFaults, ImplausibleTemperaturesAreIgnoredAndCounted) {
+  const std::size_t a = mid_rest(2), b = mid_move(4), c = mid_rest(5);
+  const Outcome o = run(calibrator(), r(), [&](std::size_t i, ImuSample<float>& s, auto&) {
+    s.temperature = 25.0f;
+    if (i == a) s.temperature = std::numeric_limits<float>::infinity();
+    if (i == b) s.temperature = -std::numeric_limits<float>::infinity();
+    if (i == c) s.temperature = 1e30f;
+    return true;
+  });
+  EXPECT_EQ(count(o.statuses, Status::kTemperatureImplausible), 3);
+  EXPECT_EQ(o.before_solve.stream.temperature_bad, 3u);
+  EXPECT_EQ(o.before_solve.samples_refused, 0u);
+  EXPECT_EQ(o.before_solve.poses, clean().before_solve.poses);
+  expect_calibrated(o, r());
+  ASSERT_TRUE(calibrator().calibration().has_temperature);
+  EXPECT_EQ(calibrator().calibration().temperature_c, 25.0f);
+}
+
+// A single absurd accelerometer reading (1e12, inside the default full scale of +-1e15) in the
+// first rest after the initial-rest window and one in a move: refused and counted, nothing else
+// changes.
+TEST_F(StreamFaults, AGlitchIsRefusedAndCounted) {
+  const std::size_t a = at_time(r().rec, 0.75 * r().rec.samples[r().rec.rests[0].end - 1].t);
+  const std::size_t b = mid_move(3);
+  Calibrator<float>& cal = calibrator();
+  CalibratorSettings<float> s = settings(r());
+  s.accel_min = -1e15f;  // the defaults: only readings too large for the float sums
+  s.accel_max = 1e15f;
+  auto stream_with = [&](bool glitches) {
+    cal.reset(s);
+    std::vector<Status> statuses;
+    for (std::size_t i = 0; i < r().rec.samples.size(); ++i) {
+      const ImuSample<float> x = to_sample<float>(r().rec.samples[i]);
+      if (glitches && (i == a || i == b)) {
+        ImuSample<float> bad = x;
+        bad.t_us -= 100;  // between two samples
+        bad.acc(1) = 1e12f;
+        statuses.push_back(cal.add(bad));
+      }
+      statuses.push_back(cal.add(x));
+    }
+    return statuses;
+  };
+  stream_with(false);
+  const Progress clean_progress = cal.progress();
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  const AccelVector<float> clean_params = cal.calibration().accel.params;
+  const std::vector<Status> st = stream_with(true);
+  const Progress p = cal.progress();
+  EXPECT_EQ(count(st, Status::kGlitch), 2);
+  EXPECT_EQ(p.stream.glitches, 2u);
+  EXPECT_EQ(p.samples_refused, 2u);
+  EXPECT_EQ(p.poses, clean_progress.poses);
+  EXPECT_EQ(p.moves, clean_progress.moves);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  expect_within_3_sigma(cal.calibration(), r().rec);
+  // Pose 0 is the clean one: the glitch never entered its mean.
+  const Calibration<float>& got = cal.calibration();
+  for (int k = 0; k < kAccelParams; ++k)
+    EXPECT_LT(std::abs(got.accel.params(k) - clean_params(k)), 0.01f * got.accel.sigma(k)) << k;
 }
 
 TEST_F(StreamFaults, GyroSaturationDropsOnlyThatMove) {

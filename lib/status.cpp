@@ -99,6 +99,10 @@ const char* to_string(Status s) {
       return "fit error too large (magnetic disturbance nearby, or motion too fast)";
     case Status::kTemperatureSpanSmall:
       return "temperatures span too little for a slope";
+    case Status::kGlitch:
+      return "a reading far outside the sensor's running range (refused)";
+    case Status::kTemperatureImplausible:
+      return "temperature reading not finite or out of range (ignored)";
   }
   return "unknown status";
 }

@@ -90,6 +90,14 @@ struct CalibratorSettings {
   Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
   Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period (initial rest too)
   Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
+  // Temperature readings outside this range (deg C), or not finite (NaN means "no sensor"), are
+  // ignored and counted; the sample is taken.
+  Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
+  // After the initial rest, an accelerometer reading (not at full scale) further than this many
+  // noise sigmas (the initial rest's) from the moving mean is a glitch: refused and counted.
+  // 1e5 sigma is 100 g or more for any MEMS accelerometer's noise: a value no sensor reads (an
+  // ADC's own limit is far inside for 16-bit counts).
+  Scalar glitch_sigma = Scalar(1e5);
   // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
   // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
   // the range in SI units). The defaults only refuse readings too large for the float sums.
@@ -152,6 +160,8 @@ struct StreamCounts {
   std::uint32_t gaps = 0;             // steps above the gap limit
   std::uint32_t rate_off = 0;         // one-second windows with a rate far from nominal
   std::uint32_t busy = 0;             // samples offered while solving or solved: refused
+  std::uint32_t glitches = 0;         // accelerometer readings far outside the running range
+  std::uint32_t temperature_bad = 0;  // temperatures not finite or out of range: ignored
 };
 
 struct Progress {
@@ -328,6 +338,8 @@ class Calibrator {
         restart_stream_ = true;  // the stream starts again after the frozen spell
       }
     }
+    const std::uint32_t t_before = t_prev_;
+    const Vector3<Scalar> acc_before = acc_prev_, gyro_before = gyro_prev_;
     acc_prev_ = s.acc;
     gyro_prev_ = s.gyro;
     t_prev_ = s.t_us;
@@ -353,7 +365,16 @@ class Calibrator {
       rate_us_ = 0;
       rate_n_ = 0;
     }
-    if (s.temperature == s.temperature) add_temperature(s.temperature);
+    if (s.temperature == s.temperature) {  // NaN: no temperature sensor
+      if (s.temperature >= settings_.temperature_min_c &&
+          s.temperature <= settings_.temperature_max_c) {
+        add_temperature(s.temperature);
+      } else {
+        ++counts_.temperature_bad;
+        s.temperature = std::numeric_limits<Scalar>::quiet_NaN();
+        if (result == Status::kOk) result = last_event_ = Status::kTemperatureImplausible;
+      }
+    }
     if (acc_saturated) {
       ++counts_.accel_saturated;
       result = last_event_ = Status::kSaturated;
@@ -366,6 +387,16 @@ class Calibrator {
       if (acc_saturated) restart_initial_rest();
       const Status r = acc_saturated ? Status::kOk : initial_rest_sample(s, dt);
       return r == Status::kOk ? result : r;
+    }
+    if (!acc_saturated && detector_.far_from_mean(s.acc - a_ref_, glitch2_)) {
+      // Not taken: a reading this far off is no acceleration a hand makes. The previous
+      // sample's time stays the reference, so the interval spans the refused one.
+      ++counts_.glitches;
+      t_prev_ = t_before;
+      acc_prev_ = acc_before;
+      gyro_prev_ = gyro_before;
+      last_event_ = Status::kGlitch;
+      return refuse(Status::kGlitch);
     }
     collect_sample(s, dt, acc_saturated);
     if (pose_store_full_reported_ && result == Status::kOk) {
@@ -616,6 +647,7 @@ class Calibrator {
     const CalibratorSettings<Scalar>& c = settings_;
     return c.initial_rest_seconds > Scalar(0) && c.min_rest_seconds > Scalar(0) &&
            c.trim_seconds >= Scalar(0) && c.stillness.valid() && c.block_seconds > Scalar(0) &&
+           c.glitch_sigma > Scalar(1) && c.temperature_min_c < c.temperature_max_c &&
            c.trim_seconds <= c.block_seconds * Scalar(DelayBlocks - 1) &&
            c.gap_factor > Scalar(1) && c.max_step_seconds > Scalar(0) &&
            c.frozen_seconds > Scalar(0) && c.segment_max_angle > Scalar(0) &&
@@ -787,6 +819,7 @@ class Calibrator {
     period_ = static_cast<Scalar>(t_end - t_begin) * Scalar(1e-6) / (n - Scalar(1));
     // The detector starts from the rest's own statistics.
     detector_.start(settings_.stillness, acc_mean, v0_, gv0_.sum());
+    glitch2_ = settings_.glitch_sigma * settings_.glitch_sigma * v0_.maxCoeff();
     // The initial rest is the first rest: it becomes pose 0 when the first move starts.
     rest_ = Block{};
     rest_.acc_ref = a_ref_;
@@ -1355,6 +1388,7 @@ class Calibrator {
 
   // Detector.
   StillnessDetector<Scalar> detector_{};
+  Scalar glitch2_ = Scalar(0);  // squared distance from the moving mean beyond which: a glitch
   bool last_still_ = true;
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();  // previous bias-corrected rate
 

@@ -60,6 +60,9 @@ enum class Status : std::uint8_t {
   kFieldImplausible,      // fitted field strength outside the configured Earth-field bounds
   kFitPoor,               // the fit's residual error is above the configured limit
   kTemperatureSpanSmall,  // the rests' temperatures span too little for a slope
+  // Stream (calibrator.hpp), continued.
+  kGlitch,                  // a reading far outside its sensor's running range: refused
+  kTemperatureImplausible,  // a temperature non-finite or out of range: ignored, sample taken
 };
 
 // How far to trust a calibration, from its sigmas, residuals and coverage.

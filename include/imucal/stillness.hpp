@@ -88,6 +88,17 @@ class StillnessDetector {
     return !accel_unusable && acc <= acc_max_ && (!use_gyro_ || energy_ <= energy_max_);
   }
 
+  // Whether a (relative) accelerometer reading lies further than sqrt(limit2) from the moving
+  // mean on any axis (a glitch, for the caller to refuse before update()).
+  bool far_from_mean(const Vector3<Scalar>& a, Scalar limit2) const {
+    bool far = false;
+    for (int i = 0; i < 3; ++i) {
+      const Scalar d = a(i) - mean_(i);
+      far = far || d * d > limit2;
+    }
+    return far;
+  }
+
   // The unclipped cues of the latest sample: its squared deviation from the accelerometer's
   // moving mean (summed over the axes) and its gyro energy. Their means over a rest or a move
   // are what learn_rest() and learn_motion() take.
