@@ -336,13 +336,15 @@ void round_trip(int seed, bool use_double) {
   EXPECT_GT(r["gyroscope"]["residual_deg"]["move_rms_before"].get<double>(), 0.5);
   EXPECT_EQ(r["poses"].size(), 25u);
   EXPECT_EQ(r["moves"].size(), 24u);
-  // Each pose lies inside a true rest (to the microsecond the file and the device keep).
+  // Each pose lies inside a true rest, to two samples: a move's first or last samples, turning
+  // slower than the gyro's noise (0.1 deg/s two samples into a move of this simulator against
+  // 0.18 deg/s of noise), cannot be told from the rest (test_protocols checks the rate).
   const Json& rests = t["rests_s"];
   for (const Json& p : r["poses"]) {
     bool inside = false;
     for (const Json& rest : rests)
-      inside = inside || (p["t_begin_s"].get<double>() >= rest[0].get<double>() - 1e-6 &&
-                          p["t_end_s"].get<double>() <= rest[1].get<double>() + 1e-6);
+      inside = inside || (p["t_begin_s"].get<double>() >= rest[0].get<double>() - 0.025 &&
+                          p["t_end_s"].get<double>() <= rest[1].get<double>() + 0.025);
     EXPECT_TRUE(inside) << p.dump();
   }
   for (const std::string& f : {csv, truth, out}) std::remove(f.c_str());
@@ -547,8 +549,8 @@ TEST(CliExitCodes, PoseTimesSurviveAGapLongerThanTheDeviceClock) {
     for (const Json& rest : t["rests_s"]) {
       const double b = rest[0].get<double>(), e = rest[1].get<double>();
       const double sb = b > kFrom ? b + kShift : b, se = e > kFrom ? e + kShift : e;
-      inside = inside || (p["t_begin_s"].get<double>() >= sb - 1e-6 &&
-                          p["t_end_s"].get<double>() <= se + 1e-6);
+      inside = inside || (p["t_begin_s"].get<double>() >= sb - 0.025 &&  // two samples
+                          p["t_end_s"].get<double>() <= se + 0.025);
     }
     EXPECT_TRUE(inside) << p.dump();
   }
@@ -561,10 +563,9 @@ TEST(CliExitCodes, BadSettingsTruthFilesAndStdoutOutputs) {
   ASSERT_EQ(simulate_command({"--seed", "12", "-o", csv}), 0);
   // Rest settings the calibrator would refuse: a usage error, said before reading.
   testing::internal::CaptureStderr();
-  EXPECT_EQ(calibrate_command({csv, "--initial-rest", "0.5"}, false), 2);
+  EXPECT_EQ(calibrate_command({csv, "--initial-rest", "4000"}, false), 2);
   std::string err = testing::internal::GetCapturedStderr();
-  EXPECT_NE(err.find("--initial-rest (0.5 s) must lie between --min-rest"), std::string::npos)
-      << err;
+  EXPECT_NE(err.find("--initial-rest (4000 s) must be at most 3600 s"), std::string::npos) << err;
   // A malformed truth file: a message and exit code 2, the JSON still written.
   write_file(bad_truth, R"({"accelerometer":{"parameters":{"s_x":"abc"}},"gyroscope":{}})");
   testing::internal::CaptureStdout();
@@ -1632,8 +1633,8 @@ TEST(CliAdvice, NoInitialRestSaysHoldStill) {
   const CommandRun r = run_calibrate({csv, "--initial-rest", "20"}, json);
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_EQ(r.json["collection"]["poses"], 0);
-  EXPECT_NE(r.out.find("the initial rest was not found"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("give a shorter --initial-rest"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no still period of 20 s was found"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Hold it still"), std::string::npos) << r.out;
   for (const std::string& f : {csv, json}) std::remove(f.c_str());
 }
 
@@ -1686,22 +1687,26 @@ TEST(CliInput, HeaderlessColumnsAndRate) {
 
 // The MPU-9150 recording as its authors wrote it (no header, no timestamps, ax ay az wx wy wz in
 // m/s^2 and rad/s at 100 Hz): read unedited with --rate, with and without --columns.
-TEST(CliMpu9150, HeaderlessRecordingIsReadWithRate) {
+// The MPU-9150 recordings' folder: $IMUCAL_MPU9150_DIR, the one CMake was given, or
+// ../shared/data/mpu9150. Empty if absent.
+std::string mpu9150_dir() {
 #ifdef IMUCAL_MPU9150_DEFAULT_DIR
   const char* built_in = IMUCAL_MPU9150_DEFAULT_DIR;
 #else
   const char* built_in = "";
 #endif
-  std::string path;
   const char* env = std::getenv("IMUCAL_MPU9150_DIR");
   for (const char* dir : {env, built_in, static_cast<const char*>("../shared/data/mpu9150")}) {
     if (dir == nullptr || *dir == '\0') continue;
-    if (std::ifstream(std::string(dir) + "/imu0.log").good()) {
-      path = std::string(dir) + "/imu0.log";
-      break;
-    }
+    if (std::ifstream(std::string(dir) + "/imu0.log").good()) return dir;
   }
-  if (path.empty()) GTEST_SKIP() << "mpu9150 recording not found (set IMUCAL_MPU9150_DIR)";
+  return "";
+}
+
+TEST(CliMpu9150, HeaderlessRecordingIsReadWithRate) {
+  const std::string dir = mpu9150_dir();
+  if (dir.empty()) GTEST_SKIP() << "mpu9150 recording not found (set IMUCAL_MPU9150_DIR)";
+  const std::string path = dir + "/imu0.log";
   const std::string json = temp_path("imu0.json");
   Json first;
   for (int variant = 0; variant < 2; ++variant) {
@@ -1722,14 +1727,43 @@ TEST(CliMpu9150, HeaderlessRecordingIsReadWithRate) {
     } else {
       EXPECT_EQ(r.json["poses"].dump(), first["poses"].dump());
     }
-    // With the library's initial rest no longer than the recording's (about 7 s), the rests
-    // are the poses: 21-24 by the authors' protocol.
-    if (r.json["usable"].get<bool>()) {
-      EXPECT_GE(r.json["poses"].size(), 20u);
-      EXPECT_EQ(r.code, 0);
-    } else {
-      EXPECT_FALSE(r.json["advice"].empty()) << r.out;
+    // The rests are the poses (21-24 by the authors' protocol), with default settings.
+    EXPECT_TRUE(r.json["usable"].get<bool>()) << r.out;
+    EXPECT_GE(r.json["poses"].size(), 20u);
+    EXPECT_EQ(r.code, 0);
+  }
+  std::remove(json.c_str());
+}
+
+// Both MPU-9150 boards with nothing but their rate, against the values their authors published
+// (README beside the recordings; their scale is a deviation with raw = (1 + s) true, their bias
+// is subtracted): accelerometer scales within 0.05 %, biases within 0.005 m/s^2, the gyro's
+// residual per move at most 0.3 deg.
+TEST(CliMpu9150, BothBoardsAgreeWithThePublishedCalibration) {
+  const std::string base = mpu9150_dir();
+  if (base.empty()) GTEST_SKIP() << "mpu9150 recording not found (set IMUCAL_MPU9150_DIR)";
+  struct Published {
+    const char* file;
+    double scale_pct[3], bias[3];
+  };
+  const Published boards[] = {{"imu0.log", {0.363, 0.315, 0.647}, {0.103, 0.097, 0.344}},
+                              {"imu1.log", {0.471, 0.482, 0.932}, {0.090, 0.070, 0.338}}};
+  const std::string json = temp_path("mpu.json");
+  for (const Published& b : boards) {
+    const CommandRun r = run_calibrate({base + "/" + b.file, "--rate", "100"}, json);
+    ASSERT_EQ(r.code, 0) << b.file << "\n" << r.out;
+    const Json& a = r.json["accelerometer"]["parameters"];
+    const char* s_names[3] = {"s_x", "s_y", "s_z"};
+    const char* b_names[3] = {"b_x", "b_y", "b_z"};
+    for (int i = 0; i < 3; ++i) {
+      const double expected_scale = 1.0 / (1.0 + b.scale_pct[i] / 100.0);
+      EXPECT_NEAR(a[s_names[i]]["value"].get<double>() / expected_scale, 1.0, 5e-4)
+          << b.file << " " << s_names[i];
+      EXPECT_NEAR(a[b_names[i]]["value"].get<double>(), -b.bias[i], 0.005)
+          << b.file << " " << b_names[i];
     }
+    EXPECT_LE(r.json["gyroscope"]["residual_deg"]["move_rms_after"].get<double>(), 0.3) << b.file;
+    EXPECT_GE(r.json["poses"].size(), 20u) << b.file;
   }
   std::remove(json.c_str());
 }

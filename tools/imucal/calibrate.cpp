@@ -256,31 +256,6 @@ void infer_ranges(const std::vector<Sample>& samples, bool has_gyro, Options& o)
       o.gyro_min = o.gyro_max = kNaN;
 }
 
-// CalibratorSettings::has_gyro (false: an accelerometer alone), where the library has it.
-template <class S>
-auto set_has_gyro(S& s, bool v, int) -> decltype(s.has_gyro = v, void()) {
-  s.has_gyro = v;
-}
-template <class S>
-void set_has_gyro(S&, bool, long) {}
-
-// A rest still open at the end of the recording becomes a pose when solve() ends the stream; a
-// refused solve (too few poses) leaves it open and the listing would miss the last rest. A
-// sample after a gap ends it as motion would (its last trim_seconds go), so every rest found is
-// listed. Only for the listing: the stream counts are taken before.
-template <typename Scalar, class Cal>
-void close_open_rest(Cal& cal, const Sample& last, double t0) {
-  const Phase phase = cal.progress().phase;
-  if (phase != Phase::kCollecting && phase != Phase::kReady) return;
-  Sample after = last;  // other readings than the last (the same ones would look frozen)
-  after.t += 10 * std::max(1.0, static_cast<double>(cal.settings().max_step_seconds));
-  for (int a = 0; a < 3; ++a) {
-    after.acc[a] = 0.5 * after.acc[a] + 0.25;
-    after.gyro[a] = 0.5 * after.gyro[a] + 0.25;
-  }
-  cal.add(imu_sample<Scalar>(after, t0));
-}
-
 const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
 const char* const kAxisNamesXyz[3] = {"x", "y", "z"};
 
@@ -295,9 +270,9 @@ void advise(const Progress& before, const Progress& after, const Options& o, Run
   char buf[400];
   if (before.phase == Phase::kInitialRest) {
     std::snprintf(buf, sizeof buf,
-                  "the initial rest was not found: the recording must start with %g s of "
-                  "stillness (--initial-rest; it restarts whenever the sensor moves). Hold the "
-                  "sensor still on a table at the start, or give a shorter --initial-rest.",
+                  "no still period of %g s was found (the run starts at the first one, "
+                  "--initial-rest): the sensor never held still that long. Hold it still, on a "
+                  "table, for a few seconds at the start or between turns.",
                   o.initial_rest);
     a.push_back(buf);
     if (before.hint == Hint::kCheckSensor)
@@ -446,12 +421,14 @@ void make_run_record(const Calibration<Scalar>& c, const MagCalibration<Scalar>*
   CalibrationRecord record;
   std::uint8_t bytes[kRecordMaxBytes];
   std::size_t size = 0;
-  Status st = make_record(c, o.device_id, o.sensor_id, record, mc, tm);
+  Bound bound = Bound::kNone;
+  Status st = make_record(c, o.device_id, o.sensor_id, record, mc, tm, &bound);
   if (st == Status::kOk) st = encode_record(record, bytes, sizeof bytes, &size);
   if (st == Status::kOk) {
     run.record.assign(bytes, bytes + size);
   } else {
     run.record_error = to_string(st);
+    if (st == Status::kImplausible) run.record_error += std::string(": ") + to_string(bound);
   }
 }
 
@@ -623,7 +600,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   if (run.mode == "poses") return pose_file<Scalar>(o, samples, run);
 
   CalibratorSettings<Scalar> cs;
-  set_has_gyro(cs, run.has_gyro, 0);
+  cs.has_gyro = run.has_gyro;
   cs.initial_rest_seconds = static_cast<Scalar>(o.initial_rest);
   cs.min_rest_seconds = static_cast<Scalar>(o.min_rest);
   cs.accel.gravity = static_cast<Scalar>(o.gravity);
@@ -671,8 +648,8 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   Status solved = cal->solve_all();
   keep_rests();                                    // the rest open at the end became a pose
   const StreamCounts sc = cal->progress().stream;  // of the readings as read
-  if (solved == Status::kTooFewPoses) {
-    close_open_rest<Scalar>(*cal, samples.back(), t0);
+  if (solved == Status::kTooFewPoses) {  // the rest open at the end is listed all the same
+    cal->end_stream();
     keep_rests();
   }
 
@@ -760,7 +737,9 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
                        {"clock resets", "clock_resets", sc.clock_resets},
                        {"gaps", "gaps", sc.gaps},
                        {"rate off", "rate_off", sc.rate_off},
-                       {"busy", "busy", sc.busy}};
+                       {"busy", "busy", sc.busy},
+                       {"accelerometer glitches (refused)", "glitches", sc.glitches},
+                       {"temperatures ignored", "temperature_bad", sc.temperature_bad}};
   // A solve refused before the accelerometer started (too few poses) says so there.
   run.accel_status = to_string(c.accel.status == Status::kNotStarted ? solved : c.accel.status);
   run.accel_ok = succeeded(c.accel.status);
@@ -995,10 +974,10 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal: %s\n", error.c_str());
     return 2;
   }
-  if (!(o.min_rest <= 600 && o.initial_rest >= o.min_rest && o.initial_rest <= 3600)) {
+  if (!(o.min_rest <= 600 && o.initial_rest <= 3600)) {
     std::fprintf(stderr,
-                 "imucal: --initial-rest (%g s) must lie between --min-rest (%g s) and 3600 s, "
-                 "--min-rest at most 600 s\n",
+                 "imucal: --initial-rest (%g s) must be at most 3600 s, --min-rest (%g s) at most "
+                 "600 s\n",
                  o.initial_rest, o.min_rest);
     return 2;
   }

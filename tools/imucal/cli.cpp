@@ -43,8 +43,9 @@ Options (calibrate, report):
   --accel-zero Z                  nominal raw reading at 0 g (e.g. 32768; default 0)
   --gyro-lsb-per-dps N            nominal counts per deg/s (counts: else the scale is searched)
   --gravity G                     local gravity, m/s^2 (default 9.80665)
-  --initial-rest S                the still start used for the gyro bias and noise (default 10)
-  --min-rest S                    shorter rests are not poses (default 1)
+  --initial-rest S                the shortest still period that starts the run: the first one found
+                                  gives the starting gyro bias and noise (default 2)
+  --min-rest S                    shorter still spells are not poses (default 0.6)
   --accel-range LO,HI             the accelerometer's full scale, raw units (e.g. 0,65535): a
                                   reading at or beyond it is saturated (counted, taken as motion).
                                   In counts without it: readings all integers in -32768..32767

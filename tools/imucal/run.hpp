@@ -32,8 +32,8 @@ struct Options {
   double accel_zero = kNaN;           // raw reading at zero acceleration (counts only; nominal)
   double gyro_lsb_per_dps = kNaN;     // counts per deg/s (counts only; else the scale is searched)
   double gravity = kStandardGravity;  // local gravity, m/s^2
-  double initial_rest = 10;           // s
-  double min_rest = 1;                // s
+  double initial_rest = 2;            // s: the shortest still period that starts the run
+  double min_rest = 0.6;              // s
   // Full scale in raw units: a reading at or beyond a limit is saturated (NaN: not given).
   double accel_min = kNaN, accel_max = kNaN, gyro_min = kNaN, gyro_max = kNaN;
   // Inferred when a sensor's unit is counts and no range was given: the integer format's
