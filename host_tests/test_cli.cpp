@@ -499,6 +499,36 @@ TEST(CliInput, FileWithByteOrderMarkAndNoFinalNewline) {
   for (const std::string& f : {csv, acc, gyro}) std::remove(f.c_str());
 }
 
+// A line longer than the limit, its carriage returns falling at a buffer's end, is one long
+// line skipped from a stream as from memory, not a line cut at the buffer's end.
+TEST(CliInput, LongLineEndingInCarriageReturnsIsSkippedWholeFromAStream) {
+  std::string text = "t,ax,ay,az,gx,gy,gz\n0.01,1,2,3,4,5,6\n0.02,";
+  text += std::string(120, '\r');
+  text += "1,2,3,4,5,6\n0.03,1,2,3,4,5,6\n";
+  constexpr std::size_t kLine = 100;
+  for (std::size_t block : {64u, 100u, 101u, 128u}) {
+    std::FILE* f = fmemopen(text.data(), text.size(), "r");
+    ASSERT_NE(f, nullptr);
+    SampleReader stream, memory;
+    Diagnostics ds, dm;
+    ASSERT_TRUE(stream.open_streams({f}, Format::kCsv, ds, kLine, block));
+    ASSERT_TRUE(memory.open_memory({text}, Format::kCsv, dm, kLine));
+    Record rs, rm;
+    int n = 0;
+    for (;;) {
+      const bool a = stream.next(rs, ds), b = memory.next(rm, dm);
+      ASSERT_EQ(a, b) << "block " << block;
+      if (!a) break;
+      EXPECT_EQ(rs.t, rm.t);
+      ++n;
+    }
+    std::fclose(f);
+    EXPECT_EQ(n, 2) << "block " << block;
+    EXPECT_EQ(ds.count(), 1u) << messages(ds);
+    EXPECT_EQ(dm.count(), 1u) << messages(dm);
+  }
+}
+
 TEST(CliInput, SettingsAfterTheHeaderAreReportedNotSilentlyIgnored) {
   const Read r = read_texts({"t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n# imucal: time-unit=us\n"});
   ASSERT_EQ(r.records.size(), 1u);

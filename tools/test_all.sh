@@ -1,13 +1,24 @@
 #!/usr/bin/env bash
 # Every test: set up, check formatting, then build and run the test suite on the host (plain,
 # then with ASan + UBSan) and, cross-built, on Cortex-M4F, M7 and M33 under qemu-system-arm
-# (ctest with the emulator). The Arm builds also prove "no heap" at link time and print sizes;
-# instruction counts follow.
+# (ctest with the emulator). The estimator's long tests run on the host and the M4F; the M7 and
+# M33 run the tests of what can differ between targets and the example firmware. The Arm
+# builds also prove "no heap" at link time and print sizes; consumers, fuzzing and instruction
+# counts follow. Each step prints its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+start=$SECONDS
+step_start=$SECONDS
+step() {  # step NAME: closes the previous step (its time) and opens the next
+  [ "$step_start" = "$start" ] || echo "-- $((SECONDS - step_start)) s (total $((SECONDS - start)) s)"
+  step_start=$SECONDS
+  echo "== $1"
+}
+
+step "set up"
 tools/setup_debian.sh
 
-echo "== clang-format"
+step "clang-format"
 git ls-files '*.hpp' '*.cpp' '*.c' | xargs clang-format --dry-run -Werror
 
 # Where the real recording is beside the clone (always in CI), a test that cannot find it fails.
@@ -17,7 +28,7 @@ require_xsens=OFF
 # host-asan: the host tests again under AddressSanitizer and UndefinedBehaviorSanitizer (leaks
 # included; the first finding aborts the test).
 for preset in host host-asan m4f m7 m33; do
-  echo "== $preset: configure, build, test"
+  step "$preset: configure, build, test"
   cmake --preset "$preset" -DIMUCAL_REQUIRE_XSENS=$require_xsens >/dev/null
   log="build/$preset/build.log"
   if ! cmake --build --preset "$preset" >"$log" 2>&1; then
@@ -28,14 +39,22 @@ for preset in host host-asan m4f m7 m33; do
   ctest --preset "$preset"
 done
 
-tools/test_consumers.sh  # imucal from outside: add_subdirectory, FetchContent, find_package
-tools/check_no_heap.sh m4f:-O2,-O3 m7:-O3 m33:-O3  # no heap, with and without -flto (-O2 on M7 and M33: their preset builds)
+# imucal from outside: add_subdirectory, FetchContent and find_package on the host; the
+# Cortex-M4F through FetchContent (its toolchain file carried into the fetched build).
+step "consumers"
+tools/test_consumers.sh host:subdirectory,fetchcontent,package m4f:fetchcontent
 
-echo "== fuzzing the imucal tool's readers (libFuzzer, ASan + UBSan, 60 s)"
+# No heap with and without -flto at -O2 and -O3 on one Arm target (every target's preset build
+# proves it at -O2 without LTO).
+step "no heap at other levels"
+tools/check_no_heap.sh m4f:-O2,-O3
+
+step "fuzzing the imucal tool's readers (libFuzzer, ASan + UBSan, 60 s)"
 tools/fuzz.sh 60
 
-echo "== instruction counts (Cortex-M4F, exact, QEMU TCG plugin)"
+step "instruction counts (Cortex-M4F, exact, QEMU TCG plugin)"
 bench/run_insn_bench.sh m4f
 
-echo "== whole-process time of imucal calibrate on the xsens recording"
+step "whole-process time of imucal calibrate on the xsens recording"
 bench/cli_time.sh
+step "done"

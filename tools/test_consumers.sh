@@ -4,6 +4,8 @@
 # for the Cortex-M4F (its own toolchain file), and runs it (M4F: under qemu-system-arm). Checks
 # that only the library's files are compiled: no test, benchmark, tool or GoogleTest target,
 # and at most the library's sources plus the consumer's one.
+#   tools/test_consumers.sh                                 every way, host and M4F
+#   tools/test_consumers.sh host:package m4f:fetchcontent   chosen platforms and ways
 set -euo pipefail
 cd "$(dirname "$0")/.."
 src=$PWD
@@ -22,16 +24,22 @@ run() {  # run PLATFORM PROGRAM
   fi
 }
 
-for platform in host m4f; do
+configs=("$@")
+[ ${#configs[@]} -gt 0 ] ||
+  configs=(host:subdirectory,fetchcontent,package m4f:subdirectory,fetchcontent,package)
+for config in "${configs[@]}"; do
+  platform=${config%%:*}
+  IFS=, read -ra modes <<<"${config#*:}"
   toolchain=()
   [ "$platform" = m4f ] && toolchain=(-DCMAKE_TOOLCHAIN_FILE="$src/tests/consumer/cortex-m4f.cmake")
-  # The installed package first (imucal configured as a top-level project, installing only).
-  cmake -S . -B "$work/imucal-$platform" -G Ninja -DCMAKE_BUILD_TYPE=Release "${toolchain[@]}" \
-    -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_BENCH=OFF -DIMUCAL_BUILD_TOOLS=OFF \
-    -DIMUCAL_BUILD_EXAMPLES=OFF -DCMAKE_INSTALL_PREFIX="$work/prefix-$platform" >/dev/null
-  cmake --build "$work/imucal-$platform" >/dev/null
-  cmake --install "$work/imucal-$platform" >/dev/null
-  for mode in subdirectory fetchcontent package; do
+  if [[ " ${modes[*]} " == *" package "* ]]; then  # the installed package to find
+    cmake -S . -B "$work/imucal-$platform" -G Ninja -DCMAKE_BUILD_TYPE=Release "${toolchain[@]}" \
+      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_BENCH=OFF -DIMUCAL_BUILD_TOOLS=OFF \
+      -DIMUCAL_BUILD_EXAMPLES=OFF -DCMAKE_INSTALL_PREFIX="$work/prefix-$platform" >/dev/null
+    cmake --build "$work/imucal-$platform" >/dev/null
+    cmake --install "$work/imucal-$platform" >/dev/null
+  fi
+  for mode in "${modes[@]}"; do
     echo "== consumer: $platform, $mode"
     b="$work/consumer-$platform-$mode"
     cmake -S tests/consumer -B "$b" -G Ninja "${toolchain[@]}" -DIMUCAL_CONSUMER_MODE=$mode \

@@ -559,8 +559,8 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   using Cal = Calibrator<Scalar>;
   run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
   run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
-  run.has_accel = reader.format() == Format::kImuTk || reader.has_accelerometer();
-  run.has_gyro = reader.format() == Format::kImuTk || reader.has_gyroscope();
+  run.has_accel = reader.has_accelerometer();
+  run.has_gyro = reader.has_gyroscope();
   run.has_mag = reader.has_magnetometer();
   run.mode = !run.has_accel ? "magnetometer" : o.pose_file ? "poses" : "stream";
   run.columns = reader.format() == Format::kImuTk ? "t x y z (two files)" : reader.column_names();

@@ -105,7 +105,10 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
       return false;
     }
     std::size_t len = complete ? nl : rest.size();
-    const std::size_t text_len = len > 0 && rest[len - 1] == '\r' ? len - 1 : len;
+    // A stream's incomplete line here is longer than max_line (the buffer's end, not the line's,
+    // so a '\r' there is not its terminator).
+    const bool whole = complete || from_memory_ || eof_;
+    const std::size_t text_len = whole && len > 0 && rest[len - 1] == '\r' ? len - 1 : len;
     ++line_;
     if (text_len > max_line_) {
       diag.add({name_, line_, 0,

@@ -33,9 +33,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // One input sample in the input's own units, time in seconds.
 struct Record {
   double t = 0;
-  double acc[3] = {0, 0, 0};
-  double gyro[3] = {0, 0, 0};
-  double temp = kNaN;                  // deg C; NaN: none at this sample
+  double acc[3] = {0, 0, 0};   // NaN (all three, every record): no accelerometer in the input
+  double gyro[3] = {0, 0, 0};  // NaN (all three, every record): no gyroscope in the input
+  double temp = kNaN;          // deg C; NaN: none at this sample
   double mag[3] = {kNaN, kNaN, kNaN};  // input units; NaN (all three): none at this sample
 };
 
@@ -151,8 +151,9 @@ class SampleReader {
   Format format() const { return format_; }
   bool has_temperature() const { return col_temp_ >= 0; }
   bool has_magnetometer() const { return col_mag_[0] >= 0; }
-  bool has_accelerometer() const { return col_acc_[0] >= 0; }
-  bool has_gyroscope() const { return col_gyro_[0] >= 0; }
+  // Both for an imu_tk pair; for CSV, as the columns say.
+  bool has_accelerometer() const { return format_ == Format::kImuTk || col_acc_[0] >= 0; }
+  bool has_gyroscope() const { return format_ == Format::kImuTk || col_gyro_[0] >= 0; }
   bool has_time() const { return col_t_ >= 0; }
   // How the columns were named: "header", "--columns", "columns= comment", or "assumed" (six
   // numeric columns without a header); and the names in file order ("-" for a skipped one).
