@@ -19,14 +19,13 @@ Vector3<Scalar> normalised(const Pose<Scalar>& pose, const Vector3<Scalar>& cent
   return (pose.mean - centre) * inv_scale;
 }
 
-// sigma of the normalised parameters, and whether every one is small enough to call it
-// calibrated (used at the closed-form start and again at the end).
+// The variance factor of sigma: (chi2 + k) / (dof + k) under the noise model (k = 8 pseudo
+// degrees of freedom for the model itself), or -1 (the fit's scatter) without it.
 template <typename Scalar>
-Status observable_sigma(const NormalEquations<Scalar, kAccelParams>& ne,
-                        const AccelSettings<Scalar>& settings, AccelVector<Scalar>& sd) {
-  const Status s = ne.standard_deviations(sd);
-  if (s != Status::kOk) return s;
-  return sd.maxCoeff() <= settings.max_normalised_sigma ? Status::kOk : Status::kUnobservable;
+Scalar sigma_variance(bool noise_model, Scalar chi2, int dof) {
+  if (!noise_model) return Scalar(-1);
+  constexpr Scalar kModelDof = Scalar(8);
+  return (chi2 + kModelDof) / (static_cast<Scalar>(dof) + kModelDof);
 }
 
 }  // namespace
@@ -133,6 +132,20 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
 }
 
 template <typename Scalar>
+Scalar AccelSolver<Scalar>::Problem::weight(int i) const {
+  const Pose<Scalar>& pose = poses[i];
+  if (!noise_model) return Scalar(pose.samples);
+  // var e = (dE/dx) Cov(x) (dE/dx)^T with dE/dx = dE/db = -2 (T K)^T c: the noise of the mean on
+  // each axis, noise / samples (normalised), times |dE/db|^2, plus the floor.
+  const Vector3<Scalar> x = normalised(pose, centre, Scalar(1) / scale);
+  AccelVector<Scalar> j;
+  accel_residual(p_weights, x, Scalar(1), &j);
+  const Scalar db2 = j(kBiasX) * j(kBiasX) + j(kBiasY) * j(kBiasY) + j(kBiasZ) * j(kBiasZ);
+  const Scalar var_mean = pose.noise / (scale * scale * static_cast<Scalar>(pose.samples));
+  return Scalar(1) / (var_mean * db2 + floor);
+}
+
+template <typename Scalar>
 Status AccelSolver<Scalar>::Problem::accumulate(const AccelVector<Scalar>& p,
                                                 NormalEquations<Scalar, kAccelParams>& ne) const {
   const Scalar inv_scale = Scalar(1) / scale;
@@ -140,7 +153,15 @@ Status AccelSolver<Scalar>::Problem::accumulate(const AccelVector<Scalar>& p,
     const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
     AccelVector<Scalar> j;
     const Scalar e = accel_residual(p, x, Scalar(1), &j);
-    const Status s = ne.add(j, e, Scalar(poses[i].samples));
+    const Status s = ne.add(j, e, weight(i));
+    if (s != Status::kOk) return s;
+  }
+  // A held parameter: a stiff prior row at its nominal value 0 (a sigma of 1e-6 rad).
+  for (int k = 0; k < kAccelParams; ++k) {
+    if (!(held & (1u << k))) continue;
+    AccelVector<Scalar> j = AccelVector<Scalar>::Zero();
+    j(k) = Scalar(1);
+    const Status s = ne.add(j, p(k), Scalar(1e12));
     if (s != Status::kOk) return s;
   }
   return Status::kOk;
@@ -150,31 +171,179 @@ template <typename Scalar>
 AccelSolver<Scalar>::AccelSolver(const AccelSettings<Scalar>& settings)
     : settings_(settings), lm_(settings.lm) {}
 
+// Residual degrees of freedom: poses less the parameters estimated (a held one is not).
+template <typename Scalar>
+int AccelSolver<Scalar>::dof() const {
+  int held = 0;
+  for (int k = 0; k < kAccelParams; ++k) held += (problem_.held >> k) & 1;
+  return problem_.poses.size - (kAccelParams - held);
+}
+
+template <typename Scalar>
+Scalar AccelSolver<Scalar>::chi2(const AccelVector<Scalar>& p) const {
+  Scalar sum = Scalar(0);
+  const Scalar inv_scale = Scalar(1) / problem_.scale;
+  for (int i = 0; i < problem_.poses.size; ++i) {
+    const Vector3<Scalar> x = normalised(problem_.poses[i], problem_.centre, inv_scale);
+    const Scalar e = accel_residual(p, x, Scalar(1));
+    sum += problem_.weight(i) * e * e;
+  }
+  return sum;
+}
+
+// Under the noise model the cost is a chi-square: a decrease below 1e-2 moves the parameters by
+// about 0.1 sigma. In float the cost itself is that uncertain (|c|^2 rounds to ~3e-7 of itself,
+// a few thousandths of a residual's sigma at a pose's noise), so a relative tolerance alone left
+// a near-exact ten-pose fit at maximum damping (kNoProgress) in 4 % of recordings.
+template <typename Scalar>
+LmSettings<Scalar> AccelSolver<Scalar>::lm_settings() const {
+  LmSettings<Scalar> s = settings_.lm;
+  if (problem_.noise_model && !(s.absolute_cost_tolerance > Scalar(0)))
+    s.absolute_cost_tolerance = Scalar(1e-2);
+  return s;
+}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::restart(const AccelVector<Scalar>& from) {
+  iterations_before_ += lm_.iterations();
+  AccelVector<Scalar> p = from;
+  for (int k = 0; k < kAccelParams; ++k)
+    if (problem_.held & (1u << k)) p(k) = Scalar(0);
+  problem_.p_weights = p;
+  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(lm_settings());
+  const Status s = lm_.start(problem_, p);
+  if (s != Status::kRunning && !succeeded(s)) return status_ = s;
+  return status_ = (succeeded(s) ? after_convergence(s) : s);
+}
+
+// Whether the poses determine every parameter at p. A misalignment they do not (sigma above
+// max_normalised_sigma, from the noise model: without it sigma is not trusted that far) is held
+// at 0, the worst first (the others often follow it), and the solve restarts; a scale or bias they
+// do not is kUnobservable. True when it decided (status_ set), false when every free parameter is
+// determined.
+template <typename Scalar>
+bool AccelSolver<Scalar>::hold_or_refuse(const AccelVector<Scalar>& p) {
+  const Scalar limit = settings_.max_normalised_sigma;
+  const Scalar variance = sigma_variance(problem_.noise_model, chi2(p), dof());
+  AccelVector<Scalar> sd;
+  const Status s = lm_.normal_equations().standard_deviations(sd, variance);
+  if (s != Status::kOk) {
+    status_ = s;
+    return true;
+  }
+  int worst = -1;
+  bool undetermined = false;
+  for (int k = 0; k < kAccelParams; ++k) {
+    if ((problem_.held & (1u << k)) || sd(k) <= limit) continue;
+    const bool misalignment = k == kAlphaYz || k == kAlphaZy || k == kAlphaZx;
+    if (misalignment && settings_.hold_undetermined_misalignment && problem_.noise_model) {
+      if (worst < 0 || sd(k) > sd(worst)) worst = k;
+    } else {
+      undetermined = true;
+    }
+  }
+  if (worst >= 0) {
+    problem_.held = static_cast<std::uint16_t>(problem_.held | (1u << worst));
+    restart(p);
+    return true;
+  }
+  if (undetermined) {
+    status_ = Status::kUnobservable;
+    return true;
+  }
+  return false;
+}
+
+// The LM run converged: hold a misalignment the poses do not determine; then, under the noise
+// model, check it against the fit (a floor where chi2 exceeds its degrees of freedom) and re-solve
+// with the new weights until the floor settles; then done.
+template <typename Scalar>
+Status AccelSolver<Scalar>::after_convergence(Status lm_status) {
+  const AccelVector<Scalar> p = lm_.parameters();
+  if (hold_or_refuse(p)) return status_;
+  // The weights were evaluated at the closed-form start, which can be far off where the poses
+  // barely determine a parameter: once more with them at the solution.
+  if (problem_.noise_model && !reweighted_) {
+    reweighted_ = true;
+    return restart(p);
+  }
+  // The floor: the variance q added to every residual's so that sum e^2 / (v + q) = dof, by
+  // Newton's method from q = 0 (the sum is convex and decreasing in q: monotone from below),
+  // with the residuals and weights of the latest solution: the first solution, without a floor,
+  // fits the long rests too closely, so q is found again after each re-solve (within 10 %, at
+  // most 4 times). Only with a few degrees of freedom to tell a floor from chance (4; with fewer
+  // the factor (chi2 + 8) / (dof + 8) alone scales sigma).
+  constexpr int kFloorMinDof = 4;
+  constexpr int kFloorRounds = 4;
+  const int m = dof();
+  if (!problem_.noise_model || floor_rounds_ >= kFloorRounds || m < kFloorMinDof)
+    return status_ = lm_status;
+  ++floor_rounds_;
+  const Scalar previous = problem_.floor;
+  problem_.p_weights = p;
+  problem_.floor = Scalar(0);
+  const Scalar target = static_cast<Scalar>(m);
+  const Scalar inv_scale = Scalar(1) / problem_.scale;
+  Scalar q = Scalar(0);
+  for (int it = 0; it < 50; ++it) {
+    Scalar h = -target, dh = Scalar(0);
+    for (int i = 0; i < problem_.poses.size; ++i) {
+      const Vector3<Scalar> x = normalised(problem_.poses[i], problem_.centre, inv_scale);
+      const Scalar e = accel_residual(p, x, Scalar(1));
+      const Scalar v = Scalar(1) / problem_.weight(i) + q;
+      h += e * e / v;
+      dh -= e * e / (v * v);
+    }
+    if (!(h > Scalar(0)) || !(dh < Scalar(0)) || !std::isfinite(h)) break;
+    const Scalar next = q - h / dh;
+    if (!(next > q) || !std::isfinite(next)) break;
+    const bool done = next - q <= Scalar(1e-4) * next;
+    q = next;
+    if (done) break;
+  }
+  problem_.floor = q;
+  const Scalar change = q > previous ? q - previous : previous - q;
+  if (!(change > Scalar(0.1) * q)) {
+    problem_.floor = previous;  // the weights the solution was found with
+    return status_ = lm_status;
+  }
+  return restart(p);
+}
+
 template <typename Scalar>
 Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
   lm_ = LevenbergMarquardt<Scalar, kAccelParams>(settings_.lm);
+  problem_ = Problem{};
   problem_.poses = poses;
-  problem_.centre.setZero();
-  problem_.scale = Scalar(1);
+  floor_rounds_ = 0;
+  reweighted_ = false;
+  iterations_before_ = 0;
   Status s = check_poses(poses, settings_, problem_.centre, problem_.scale);
   if (s != Status::kOk) return status_ = s;
+  problem_.noise_model = true;
+  for (int i = 0; i < poses.size; ++i)
+    problem_.noise_model = problem_.noise_model && poses[i].noise > Scalar(0);
   AccelVector<Scalar> p0;
   s = fit_ellipsoid(poses, problem_.centre, problem_.scale, p0);
   if (s != Status::kOk) return status_ = s;
+  problem_.p_weights = p0;
+  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(lm_settings());
   s = lm_.start(problem_, p0);
   if (s != Status::kRunning && !succeeded(s)) return status_ = s;
+  if (succeeded(s)) return status_ = after_convergence(s);
   // Observability before iterating: the closed-form start is already close to the optimum, so
   // sigma there shows whether the poses determine every parameter (a flat valley would
   // otherwise only end at the iteration cap).
-  AccelVector<Scalar> sd;
-  const Status obs = observable_sigma(lm_.normal_equations(), settings_, sd);
-  return status_ = (obs == Status::kOk ? s : obs);
+  if (hold_or_refuse(p0)) return status_;
+  return status_ = s;
 }
 
 template <typename Scalar>
 Status AccelSolver<Scalar>::step() {
   if (status_ != Status::kRunning) return status_;
-  return status_ = lm_.step(problem_);
+  const Status s = lm_.step(problem_);
+  if (succeeded(s)) return after_convergence(s);
+  return status_ = s;
 }
 
 template <typename Scalar>
@@ -182,13 +351,18 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   // Every path leaves `out` whole: the estimate only when usable, zeros and the reason otherwise.
   out = AccelCalibration<Scalar>{};
   out.poses = problem_.poses.size;
-  out.iterations = lm_.iterations();
+  out.iterations = iterations();
   out.status = status_;
   if (!succeeded(status_)) return status_;
 
   const AccelVector<Scalar>& pn = lm_.parameters();
+  const Scalar chi = chi2(pn);
+  const int m = dof();
   AccelVector<Scalar> sdn;
-  const Status obs = observable_sigma(lm_.normal_equations(), settings_, sdn);
+  Status obs =
+      lm_.normal_equations().standard_deviations(sdn, sigma_variance(problem_.noise_model, chi, m));
+  if (obs == Status::kOk && !(sdn.maxCoeff() <= settings_.max_normalised_sigma))
+    obs = Status::kUnobservable;
   if (obs != Status::kOk) return out.status = obs;
 
   // Back to sensor units: x = (a - centre) / scale and unit gravity, so
@@ -203,6 +377,15 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
     p(kBiasX + i) = k * pn(kBiasX + i) - problem_.centre(i);
     sd(kBiasX + i) = k * sdn(kBiasX + i);
   }
+  std::uint16_t weak = 0;
+  for (int i = 0; i < kAccelParams; ++i) {
+    if (problem_.held & (1u << i)) {
+      p(i) = Scalar(0);
+      sd(i) = Scalar(0);
+    } else if (sdn(i) > settings_.weak_normalised_sigma) {
+      weak = static_cast<std::uint16_t>(weak | (1u << i));
+    }
+  }
   Scalar sum_w = Scalar(0), sum_r2 = Scalar(0);
   for (int i = 0; i < problem_.poses.size; ++i) {
     const Vector3<Scalar> x = normalised(problem_.poses[i], problem_.centre, Scalar(1) / k);
@@ -213,13 +396,53 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
     sum_r2 += w * r * r;
   }
   const Scalar rms = std::sqrt(sum_r2 / sum_w);
-  if (!all_finite(p) || !all_finite(sd) || !std::isfinite(rms)) {
+  // The floor as the noise of a mean on one axis: var e = |dE/db|^2 var_axis, |dE/db| ~ 2.
+  const Scalar floor = g * std::sqrt(problem_.floor) / Scalar(2);
+  const Scalar ratio = problem_.noise_model && m > 0 ? chi / static_cast<Scalar>(m) : Scalar(0);
+  if (!all_finite(p) || !all_finite(sd) || !std::isfinite(rms) || !std::isfinite(floor) ||
+      !std::isfinite(ratio)) {
     return out.status = Status::kIllConditioned;
   }
   out.params = p;
   out.sigma = sd;
   out.residual_rms = rms;
+  out.pose_floor = floor;
+  out.fit_to_noise = ratio;
+  out.weak = weak;
+  out.held = problem_.held;
   return out.status;
+}
+
+const char* accel_parameter_name(int k) {
+  static constexpr const char* kNames[kAccelParams] = {"alpha_yz", "alpha_zy", "alpha_zx",
+                                                       "scale_x",  "scale_y",  "scale_z",
+                                                       "bias_x",   "bias_y",   "bias_z"};
+  return k >= 0 && k < kAccelParams ? kNames[k] : "?";
+}
+
+const char* accel_orientation_hint(int k) {
+  switch (k) {
+    case kAlphaYz:
+      return "hold it with gravity between its x and y axes (tilted about 45 deg about z), "
+             "in two or more such poses";
+    case kAlphaZy:
+      return "hold it with gravity between its x and z axes (tilted about 45 deg about y), "
+             "in two or more such poses";
+    case kAlphaZx:
+      return "hold it with gravity between its y and z axes (tilted about 45 deg about x), "
+             "in two or more such poses";
+    case kScaleX:
+    case kBiasX:
+      return "hold it with its x axis straight up and straight down";
+    case kScaleY:
+    case kBiasY:
+      return "hold it with its y axis straight up and straight down";
+    case kScaleZ:
+    case kBiasZ:
+      return "hold it with its z axis straight up and straight down";
+    default:
+      return "";
+  }
 }
 
 template class AccelSolver<float>;

@@ -338,7 +338,7 @@ ReferenceResult reference_calibrate(const std::vector<RawSample>& s, const Refer
     return res;
   }
 
-  // Accelerometer: one pose per rest, weighted by its sample count, through the library; with
+  // Accelerometer: one pose per rest, with its noise, through the library; with
   // a k range, the k whose fit has the lowest residual RMS (imu_tk).
   std::vector<Pose<double>> poses;
   Status acc_status = Status::kTooFewPoses;
@@ -353,9 +353,16 @@ ReferenceResult reference_calibrate(const std::vector<RawSample>& s, const Refer
     trial_poses.reserve(rests.size());
     for (const RestInterval& iv : rests) {
       V3 sum = V3::Zero();
-      for (std::size_t i = iv.begin; i < iv.end; ++i) sum += s[i].acc;
+      double diff2 = 0.0;  // squared sample-to-sample differences: white noise, drift excluded
+      for (std::size_t i = iv.begin; i < iv.end; ++i) {
+        sum += s[i].acc;
+        if (i > iv.begin) diff2 += (s[i].acc - s[i - 1].acc).squaredNorm();
+      }
       const std::size_t count = iv.end - iv.begin;
-      trial_poses.push_back({sum / static_cast<double>(count), static_cast<std::uint32_t>(count)});
+      // The pose's noise (Pose::noise) as the library measures it: one sample, one axis.
+      const double noise = count > 1 ? diff2 / (6.0 * static_cast<double>(count - 1)) : 0.0;
+      trial_poses.push_back(
+          {sum / static_cast<double>(count), static_cast<std::uint32_t>(count), noise});
     }
     AccelSettings<double> acc_settings;
     acc_settings.gravity = st.gravity;

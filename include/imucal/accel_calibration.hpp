@@ -5,6 +5,8 @@
 // exceptions; solving can be time-sliced (one LM iteration per step()).
 #pragma once
 
+#include <cstdint>
+
 #include "imucal/accel_model.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "imucal/pose_store.hpp"
@@ -29,6 +31,15 @@ struct AccelSettings {
   // rad, scale relative to nominal, bias as a fraction of gravity). Larger means the poses do not
   // determine that parameter, and the result is refused with kUnobservable.
   Scalar max_normalised_sigma = Scalar(0.02);
+  // Above this normalised sigma (a quarter of the bound: 0.3 deg, 0.5 %, 0.5 % of gravity) a
+  // parameter is weak: named in the result (AccelCalibration::weak) for the orientations that
+  // would pin it down (accel_orientation_hint()).
+  Scalar weak_normalised_sigma = Scalar(0.005);
+  // With the poses' noise (Pose::noise), a misalignment the poses do not determine (sigma above
+  // max_normalised_sigma) is held at 0, its nominal value, and named (AccelCalibration::held),
+  // instead of refusing the calibration; false, or without the noise: refused with
+  // kUnobservable, as any scale or bias the poses do not determine is.
+  bool hold_undetermined_misalignment = true;
   LmSettings<Scalar> lm = default_lm();
 
   // In float the residual g^2 - |c|^2 cancels to about 3e-4 of itself (g^2 ~ 96 against pose
@@ -43,16 +54,40 @@ struct AccelSettings {
   }
 };
 
+// Sigma. When every pose carries its noise (Pose::noise, as the streaming calibrator measures
+// it), a pose's residual has the variance its mean's noise gives it, and sigma comes from that
+// model: honest with ten poses, where the fit's own scatter has one degree of freedom. The model
+// is then checked against the fit: a chi-square above its degrees of freedom means noise the
+// rests' scatter does not show (bias instability, a hand's slow sway, a mean over a long rest
+// that is not as good as its sample count says), and a floor common to every pose mean
+// (pose_floor) is added until they agree, which also caps a long rest's weight; sigma is scaled
+// by (chi2 + 8) / (dof + 8): the model where the fit has few degrees of freedom, the fit's scatter
+// where it has many. Without the noise, poses are weighted by sample count and sigma is scaled
+// by the fit's scatter alone.
 template <typename Scalar>
 struct AccelCalibration {
   AccelVector<Scalar> params =
       AccelVector<Scalar>::Zero();  // seed order, sensor units in, m/s^2 out
   AccelVector<Scalar> sigma = AccelVector<Scalar>::Zero();  // one standard deviation each
   Scalar residual_rms = Scalar(0);  // m/s^2: sample-weighted RMS of |g| - |a_cal| over poses
+  // Noise of one pose mean beyond what the rests' scatter explains (m/s^2, each axis): 0 when
+  // the model explains the fit, or without the pose noise.
+  Scalar pose_floor = Scalar(0);
+  // chi2 / dof of the fit under the noise model (1 when the model is right; 0 without it).
+  Scalar fit_to_noise = Scalar(0);
+  // Bit k for parameter k (AccelIndex): weak (sigma above weak_normalised_sigma), or held at its
+  // nominal value because the poses do not determine it (sigma 0 then).
+  std::uint16_t weak = 0;
+  std::uint16_t held = 0;
   int poses = 0;
   int iterations = 0;
   Status status = Status::kNotStarted;
 };
+
+// Parameter k (AccelIndex) by name ("alpha_yz" .. "bias_z"), and the orientations that pin it
+// down, in words, for a weak or held one.
+const char* accel_parameter_name(int k);
+const char* accel_orientation_hint(int k);
 
 // The solve in steps. start() validates the poses, normalises them and computes the closed-form
 // start; step() runs one LM iteration; finish() maps the result back to sensor units. The pose
@@ -67,22 +102,38 @@ class AccelSolver {
   // The final status. `out` holds the estimate only if succeeded(status); otherwise zeros.
   Status finish(AccelCalibration<Scalar>& out) const;
   Status status() const { return status_; }
-  int iterations() const { return lm_.iterations(); }
+  int iterations() const { return iterations_before_ + lm_.iterations(); }
 
   // The residual problem in normalised units (public for the LM's Problem interface).
   struct Problem {
     PoseSpan<Scalar> poses;
     Vector3<Scalar> centre = Vector3<Scalar>::Zero();
     Scalar scale = Scalar(1);
+    bool noise_model = false;                                     // every pose carries its noise
+    AccelVector<Scalar> p_weights = AccelVector<Scalar>::Zero();  // weights evaluated here
+    Scalar floor = Scalar(0);  // variance added to each residual's (normalised units)
+    std::uint16_t held = 0;    // parameters held at 0 by a stiff prior row
+    // The weight of pose i: its sample count, or 1 / the variance of its residual.
+    Scalar weight(int i) const;
     Status accumulate(const AccelVector<Scalar>& p,
                       NormalEquations<Scalar, kAccelParams>& ne) const;
   };
 
  private:
+  LmSettings<Scalar> lm_settings() const;
+  Status restart(const AccelVector<Scalar>& from);
+  Status after_convergence(Status lm_status);
+  bool hold_or_refuse(const AccelVector<Scalar>& p);
+  int dof() const;
+  Scalar chi2(const AccelVector<Scalar>& p) const;
+
   AccelSettings<Scalar> settings_;
   Problem problem_{};
   LevenbergMarquardt<Scalar, kAccelParams> lm_;
   Status status_ = Status::kNotStarted;
+  int floor_rounds_ = 0;
+  bool reweighted_ = false;
+  int iterations_before_ = 0;  // LM iterations of the runs before the current one
 };
 
 // Closed-form start (math.md section 2): algebraic ellipsoid fit x^T Q x + u^T x = 1 on the

@@ -991,7 +991,7 @@ class Calibrator {
       drop_move();
       return;
     }
-    if (poses_.add(rest_.acc_mean(), rest_.n) != Status::kOk) {
+    if (poses_.add(rest_.acc_mean(), rest_.n, rest_noise()) != Status::kOk) {
       drop_move();
       return;
     }
@@ -1029,6 +1029,18 @@ class Calibrator {
     if (phase_ == Phase::kCollecting && poses_.size() >= settings_.target_poses && faces() == 0x3f)
       phase_ = Phase::kReady;
     if (poses_.full()) phase_ = Phase::kReady;
+  }
+
+  // The rest's noise for the accelerometer solver (Pose::noise): the variance of one sample on
+  // one axis, from the detector's cue summed over the rest (each sample's squared deviation from
+  // the moving mean, over the three axes). With white noise of variance s^2 that deviation has
+  // variance s^2 (1 + w / (2 - w)) per axis, w = dt / (seconds + dt) the moving mean's weight.
+  Scalar rest_noise() const {
+    const Scalar n = static_cast<Scalar>(rest_.n);
+    const Scalar dt = static_cast<Scalar>(rest_.t_end - rest_.t_begin) * Scalar(1e-6) / n;
+    const Scalar w = dt / (settings_.stillness.seconds + dt);
+    const Scalar noise = rest_.accel_cue / (Scalar(3) * n) * (Scalar(1) - w / Scalar(2));
+    return std::isfinite(noise) && noise > Scalar(0) ? noise : Scalar(0);
   }
 
   // The latest pose as a RestSummary (for the temperature fit): the gyro mean from the rest's

@@ -22,6 +22,11 @@ struct LmSettings {
   Scalar step_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-10) : Scalar(2e-6);
   Scalar cost_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-12) : Scalar(1e-6);
   Scalar gradient_tolerance = sizeof(Scalar) >= 8 ? Scalar(1e-10) : Scalar(1e-5);
+  // Absolute, in the cost's own units (0: off): a decrease at or below it counts as converged.
+  // For a cost that is a chi-square (rows weighted by their known noise), 1e-2 is a step of
+  // about 0.1 sigma; a relative tolerance cannot say that when the fit is nearly exact and the
+  // cost sits at the scalar's rounding.
+  Scalar absolute_cost_tolerance = Scalar(0);
 };
 
 template <typename Scalar, int N>
@@ -98,8 +103,8 @@ class LevenbergMarquardt {
       lambda_ = lambda_ / Scalar(10);
       if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
       const bool tiny_step = small_step(delta_);
-      const bool tiny_gain = actual <= settings_.cost_tolerance * f0 &&
-                             predicted_ <= Scalar(2) * settings_.cost_tolerance * f0;
+      const Scalar tol = cost_tolerance(f0);
+      const bool tiny_gain = actual <= tol && predicted_ <= Scalar(2) * tol;
       // A heavily damped step is small for the wrong reason: then only the undamped
       // Gauss-Newton step at the new point may confirm convergence.
       if ((tiny_step || tiny_gain) && (lambda_used <= Scalar(1) || gauss_newton_done()))
@@ -136,7 +141,13 @@ class LevenbergMarquardt {
     Vector gn;
     if (current_.solve_damped(Scalar(0), gn) != Status::kOk) return false;
     return small_step(gn) ||
-           current_.predicted_decrease(gn) <= settings_.cost_tolerance * current_.weighted_sse();
+           current_.predicted_decrease(gn) <= cost_tolerance(current_.weighted_sse());
+  }
+
+  Scalar cost_tolerance(Scalar f) const {
+    const Scalar relative = settings_.cost_tolerance * f;
+    return relative > settings_.absolute_cost_tolerance ? relative
+                                                        : settings_.absolute_cost_tolerance;
   }
 
   bool small_step(const Vector& delta) const {

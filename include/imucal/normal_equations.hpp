@@ -109,8 +109,8 @@ class NormalEquations {
   // Cov(p) = f / (m - N) * H^-1, valid at the minimum of f.
   Status covariance(Matrix& cov) const {
     Matrix c = Matrix::Zero();
-    const Status s =
-        for_each_inverse_column([&](int col, const Vector& column) { c.col(col) = column; });
+    const Status s = for_each_inverse_column(
+        Scalar(-1), [&](int col, const Vector& column) { c.col(col) = column; });
     if (s != Status::kOk) return s;
     if (!all_finite(c)) return Status::kIllConditioned;
     cov = c;
@@ -118,9 +118,11 @@ class NormalEquations {
   }
 
   // sqrt(diag(Cov)) without forming the covariance: what a device needs, with less stack.
-  Status standard_deviations(Vector& sd) const {
+  // variance < 0: Cov = f / (m - N) H^-1 (the noise taken from the fit's own scatter); otherwise
+  // Cov = variance H^-1 (rows weighted by a known noise model: variance 1 when it is exact).
+  Status standard_deviations(Vector& sd, Scalar variance = Scalar(-1)) const {
     Vector out = Vector::Zero();
-    const Status s = for_each_inverse_column([&](int col, const Vector& column) {
+    const Status s = for_each_inverse_column(variance, [&](int col, const Vector& column) {
       out(col) = std::sqrt(column(col) > Scalar(0) ? column(col) : Scalar(0));
     });
     if (s != Status::kOk) return s;
@@ -176,18 +178,19 @@ class NormalEquations {
     return Status::kOk;
   }
 
-  // Calls f(c, column c of f/(m-N) H^-1) for each c. One column at a time, plain vectors in
-  // and out: a matrix right-hand side, an expression, or a block as destination each take an
-  // Eigen path that links malloc and a thread-safe static (the footprint's no-heap check
-  // caught all three).
+  // Calls f(c, column c of variance H^-1) for each c (variance < 0: f/(m-N)). One column at a time,
+  // plain vectors in and out: a matrix right-hand side, an expression, or a block as destination
+  // each take an Eigen path that links malloc and a thread-safe static (the footprint's no-heap
+  // check caught all three).
   template <class F>
-  Status for_each_inverse_column(F f) const {
+  Status for_each_inverse_column(Scalar variance, F f) const {
     if (rows_ <= N) return Status::kTooFewResiduals;
+    if (!std::isfinite(variance)) return Status::kInvalidArgument;
     Vector scale;
     Eigen::LDLT<Matrix> ldlt;
     const Status s = factor(Scalar(0), scale, ldlt);
     if (s != Status::kOk) return s;
-    const Scalar variance = f_ / Scalar(rows_ - N);
+    if (variance < Scalar(0)) variance = f_ / Scalar(rows_ - N);
     for (int c = 0; c < N; ++c) {
       Vector unit = Vector::Zero();
       unit(c) = Scalar(1);
