@@ -263,6 +263,22 @@ std::string plural(long n, const char* one, const char* many) {
   return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
+// A misalignment the poses did not determine (held at 0) and a weak parameter, by name, with
+// the orientations that would pin it down.
+template <typename Scalar>
+void advise_parameters(const AccelCalibration<Scalar>& a, Run& run) {
+  for (int k = 0; k < kAccelParams; ++k) {
+    if (a.held & (1u << k))
+      run.advice.push_back(std::string("accelerometer ") + accel_parameter_name(k) +
+                           " was not determined by the poses and is held at 0 (nominal): " +
+                           accel_orientation_hint(k) + ".");
+    else if (a.weak & (1u << k))
+      run.advice.push_back(std::string("accelerometer ") + accel_parameter_name(k) +
+                           " is weakly determined (see its sigma): " + accel_orientation_hint(k) +
+                           ".");
+  }
+}
+
 // What to do next, in words: from the calibrator's progress before the solve (its hint, the
 // faces and axes still missing) and the counts after it.
 void advise(const Progress& before, const Progress& after, const Options& o, Run& run) {
@@ -490,6 +506,7 @@ int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
   run.accel_ok = succeeded(st);
   run.accel_iterations = c.accel.iterations;
   run.gyro_status = "not in the input";
+  if (run.accel_ok) advise_parameters(c.accel, run);
   run.temperature.status = "needs the accelerometer and the gyroscope streams";
   run.temperature.accel.status = run.temperature.gyro.status = run.temperature.status;
   for (int k = 0; k < 9; ++k) {
@@ -762,6 +779,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
     run.advice.push_back("the gyroscope was not calibrated (" + run.gyro_status +
                          "): turn between the poses about all three body axes, and do not stop "
                          "the recording while turning.");
+  if (run.accel_ok) advise_parameters(c.accel, run);
   for (int k = 0; k < 9; ++k) {
     run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));
     run.accel_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.sigma(k));
