@@ -85,26 +85,11 @@ Status check_poses(PoseSpan<Scalar> poses, const AccelSettings<Scalar>& settings
   return Status::kOk;
 }
 
-template <typename Scalar>
-Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scalar scale,
-                     AccelVector<Scalar>& p_normalised) {
-  if (poses.size < kAccelParams) return Status::kTooFewPoses;
-  // x^T Q x + u^T x = 1, theta = [Q00 Q11 Q22 Q01 Q02 Q12 u0 u1 u2]: a linear least-squares
-  // problem, accumulated in the same normal-equations form (residual phi.theta - 1, at theta=0).
-  Scalar mean_n = Scalar(0);
-  for (int i = 0; i < poses.size; ++i) mean_n += Scalar(poses[i].samples);
-  mean_n /= Scalar(poses.size);
-  NormalEquations<Scalar, kAccelParams> ne;
-  const Scalar inv_scale = Scalar(1) / scale;
-  for (int i = 0; i < poses.size; ++i) {
-    const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
-    const Status s = ne.add(detail::quadric_row(x), Scalar(-1), Scalar(poses[i].samples) / mean_n);
-    if (s != Status::kOk) return s;
-  }
-  AccelVector<Scalar> theta;
-  const Status s = ne.solve_damped(Scalar(0), theta);
-  if (s != Status::kOk) return s;
+namespace {
 
+// T K and b (normalised) from the quadric x^T Q x + u^T x = 1, when it is an ellipsoid.
+template <typename Scalar>
+Status params_from_quadric(const AccelVector<Scalar>& theta, AccelVector<Scalar>& p_normalised) {
   Matrix3<Scalar> q;
   Vector3<Scalar> u;
   detail::quadric_from(theta, q, u);
@@ -129,6 +114,47 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   if (!all_finite(p)) return Status::kNotAnEllipsoid;
   p_normalised = p;
   return Status::kOk;
+}
+
+}  // namespace
+
+template <typename Scalar>
+Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scalar scale,
+                     AccelVector<Scalar>& p_normalised) {
+  if (poses.size < kAccelParams) return Status::kTooFewPoses;
+  // x^T Q x + u^T x = 1, theta = [Q00 Q11 Q22 Q01 Q02 Q12 u0 u1 u2]: a linear least-squares
+  // problem, accumulated in the same normal-equations form (residual phi.theta - 1, at theta=0).
+  Scalar mean_n = Scalar(0);
+  for (int i = 0; i < poses.size; ++i) mean_n += Scalar(poses[i].samples);
+  mean_n /= Scalar(poses.size);
+  NormalEquations<Scalar, kAccelParams> ne;
+  const Scalar inv_scale = Scalar(1) / scale;
+  for (int i = 0; i < poses.size; ++i) {
+    const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
+    const Status s = ne.add(detail::quadric_row(x), Scalar(-1), Scalar(poses[i].samples) / mean_n);
+    if (s != Status::kOk) return s;
+  }
+  AccelVector<Scalar> theta;
+  Status s = ne.solve_damped(Scalar(0), theta);
+  if (s != Status::kOk) return s;
+  s = params_from_quadric(theta, p_normalised);  // exact on noise-free poses
+  if (s != Status::kNotAnEllipsoid) return s;
+
+  // A term no pose excites (x0 x1 when no pose has gravity between x and y) is set by the noise
+  // alone and can make the quadric indefinite. Once more with a weak pull toward the unit sphere
+  // (Q = I, u = 0), 1e-4 of the data's information on each coefficient: it settles such a term
+  // and moves the others less than the LM run corrects anyway. Poses that lie on a quadric that
+  // is not an ellipsoid stay one.
+  Scalar trace = Scalar(0);
+  for (int k = 0; k < kAccelParams; ++k) trace += ne.h(k, k);
+  const Scalar pull = Scalar(1e-4) * trace;
+  for (int k = 0; k < kAccelParams; ++k) {
+    s = ne.add(AccelVector<Scalar>::Unit(k), k < 3 ? Scalar(-1) : Scalar(0), pull);
+    if (s != Status::kOk) return s;
+  }
+  s = ne.solve_damped(Scalar(0), theta);
+  if (s != Status::kOk) return s;
+  return params_from_quadric(theta, p_normalised);
 }
 
 template <typename Scalar>
