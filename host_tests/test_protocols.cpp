@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "imucal/calibrator.hpp"
+#include "imucal/rest_monitor.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "support/calibrator_sim.hpp"
 
@@ -236,6 +237,73 @@ TEST(Protocols, HighRatesOnAWarmingBoard) {
   }
 }
 #endif
+
+// The field's RestMonitor runs the calibrator's detector. Set up from what the calibration
+// measured (its noise, its gyro bias) as a firmware would, on the same recordings it finds every
+// rest the calibrator found, each within a true rest (no sample of a move in it, beyond the
+// hand's own jitter at a move's very edge).
+template <typename Scalar>
+void monitor_finds_the_rests(const char* name, Scenario sc, std::uint64_t seed) {
+  sc.plan.record_attitude = false;
+  sim::Random rng(seed);
+  const sim::Recording rec = sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng);
+  static BigCalibrator<Scalar> cal;
+  CalibratorSettings<Scalar> s;
+  s.accel.gravity = static_cast<Scalar>(sc.plan.gravity);
+  s.gyro.nominal_scale = static_cast<Scalar>(sc.gyro.nominal_scale);
+  cal.reset(s);
+  for (const auto& m : rec.samples) cal.add(to_sample<Scalar>(m));
+  ASSERT_TRUE(succeeded(cal.solve_all())) << name;
+  RestMonitorSettings<Scalar> ms;
+  ms.accel_noise = cal.accel_noise_variance().sum();
+  ms.gyro_noise = cal.gyro_noise_variance().sum();
+  ms.gyro_rest_reading = -cal.calibration().gyro.params.template tail<3>();
+  ms.min_rest_seconds = s.min_rest_seconds;
+  RestMonitor<Scalar, 8> monitor(ms);
+  std::vector<RestSummary<Scalar>> found;
+  RestSummary<Scalar> r;
+  for (const auto& m : rec.samples) {
+    ASSERT_EQ(monitor.add(to_sample<Scalar>(m)), Status::kOk) << name;
+    while (monitor.take(r)) found.push_back(r);
+  }
+  monitor.finish();
+  while (monitor.take(r)) found.push_back(r);
+  EXPECT_EQ(monitor.dropped(), 0u);
+  EXPECT_EQ(static_cast<int>(found.size()), cal.progress().poses) << name;
+  const double allowed = std::max(2.0 * sc.plan.hand_tremor, sc.gyro.noise * sc.gyro.nominal_scale);
+  std::size_t next = 0;  // each found rest lies in a true rest, in order, one per true rest
+  for (const RestSummary<Scalar>& f : found) {
+    const double b = f.begin_us * 1e-6, e = f.end_us * 1e-6;
+    double worst_rate = 0.0;
+    for (const auto& m : rec.samples)
+      if (m.t >= b - 1e-7 && m.t <= e + 1e-7 && !m.still)
+        worst_rate = std::max(worst_rate, m.rate.norm());
+    EXPECT_LE(worst_rate, allowed) << name << ": rest [" << b << ", " << e << "] s";
+    while (next < rec.rests.size() && rec.samples[rec.rests[next].end - 1].t < b) ++next;
+    ASSERT_LT(next, rec.rests.size()) << name;
+    EXPECT_GE(b, rec.samples[rec.rests[next].begin].t - 0.5) << name;
+    ++next;
+  }
+  std::printf("%-28s %s: monitor %zu rests, calibrator %d poses, %zu true\n", name,
+              sizeof(Scalar) == 4 ? "float " : "double", found.size(), cal.progress().poses,
+              rec.rests.size());
+}
+
+TEST(Protocols, RestMonitorFindsTheCalibratorsRests) {
+  Scenario table = base(10.0, kProtocolPoses);
+  monitor_finds_the_rests<float>("table-top", table, 49);
+  Scenario hand = table;
+  hand.plan.hand_tremor = 0.9 * kDeg;
+  hand.plan.hand_drift = 0.4 * kDeg;
+  hand.plan.hand_accel = 0.016;
+  monitor_finds_the_rests<float>("hand-held, quiet start", hand, 42);
+  hand.plan.hand_initial_rest = true;
+  monitor_finds_the_rests<double>("hand-held throughout", hand, 43);
+  Scenario short_rests = table;
+  short_rests.plan.rest_min_s = 1.0;
+  short_rests.plan.rest_max_s = 1.2;
+  monitor_finds_the_rests<float>("1 s rests at 100 Hz", short_rests, 44);
+}
 
 // An accelerometer alone: stillness from the accelerometer, the solve stops after it.
 TEST(Protocols, AccelerometerWithoutAGyro) {

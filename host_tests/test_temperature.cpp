@@ -488,11 +488,14 @@ TEST(TemperatureFit, RefusalsFloat) { refusals<float>(); }
 
 template <typename S>
 RestMonitorSettings<S> monitor_settings(const sim::AccelSensorSpec& acc,
-                                        const sim::GyroSensorSpec& gyro) {
+                                        const sim::GyroSensorSpec& gyro,
+                                        const Vector3<double>& gyro_zero) {
   RestMonitorSettings<S> m;
-  // k = 6 times the sum of the per-axis noise variances (what Calibrator measures).
-  m.accel_var_max = static_cast<S>(6.0 * 3.0 * acc.noise * acc.noise);
-  m.gyro_var_max = static_cast<S>(6.0 * 3.0 * gyro.noise * gyro.noise);
+  // The sums over the axes of the per-axis noise variances (what Calibrator measures), and the
+  // raw gyro reading at zero rate when the monitor starts (minus the calibration's bias).
+  m.accel_noise = static_cast<S>(3.0 * acc.noise * acc.noise);
+  m.gyro_noise = static_cast<S>(3.0 * gyro.noise * gyro.noise);
+  m.gyro_rest_reading = gyro_zero.cast<S>();
   return m;
 }
 
@@ -589,7 +592,8 @@ void monitor_stream(const char* label) {
   for (int faults = 0; faults < 2; ++faults) {
     sim::Random stream_rng(1201);
     sim::TemperatureStream stream(truth, acc, gyro, plan, stream_rng);
-    RestMonitor<S> monitor(monitor_settings<S>(acc, gyro));
+    RestMonitor<S> monitor(
+        monitor_settings<S>(acc, gyro, truth.raw_gyro(Vector3<double>::Zero(), 20.0)));
     const std::vector<FoundRest> found = run_monitor(stream, monitor, faults == 1);
     ASSERT_EQ(found.size(), 5u) << label;
     const int expected_index[5] = {0, 1, 2, 2, 3};
@@ -637,7 +641,8 @@ TEST(RestMonitor, ShiftLimitSplitsADriftingRest) {
   plan.profile.ramp_s = 140.0;
   sim::Random stream_rng(1201);
   sim::TemperatureStream stream(truth, acc, gyro, plan, stream_rng);
-  RestMonitorSettings<float> set = monitor_settings<float>(acc, gyro);
+  RestMonitorSettings<float> set =
+      monitor_settings<float>(acc, gyro, truth.raw_gyro(Vector3<double>::Zero(), 20.0));
   set.accel_shift_max = 8.0f;
   RestMonitor<float> monitor(set);
   const std::vector<FoundRest> found = run_monitor(stream, monitor, false);
@@ -652,14 +657,24 @@ TEST(RestMonitor, GapEndsTheRestAndSettingsAreChecked) {
   ImuSample<float> s;
   s.t_us = 1000;
   EXPECT_EQ(m.add(s), Status::kInvalidArgument);
-  set.accel_var_max = 1e-2f;
-  set.gyro_var_max = 1e-4f;
-  set.max_rest_seconds = 0.5f;  // shorter than a window
+  set.accel_noise = 3e-4f;      // 0.01 per axis
+  set.gyro_noise = 4e-6f;       // 0.002 on x
+  set.max_rest_seconds = 0.5f;  // shorter than the shortest rest handed out
   EXPECT_EQ(m.reset(set), Status::kInvalidArgument);
+  set.max_rest_seconds = 60.0f;
+  set.trim_seconds = 0.0f;
+  EXPECT_EQ(m.reset(set), Status::kInvalidArgument);
+  set.trim_seconds = 0.25f;
+  set.gyro_noise = -1.0f;
+  EXPECT_EQ(m.reset(set), Status::kInvalidArgument);
+  set.gyro_noise = 4e-6f;
+  set.stillness.accel_k = 0.5f;
+  EXPECT_EQ(m.reset(set), Status::kInvalidArgument);
+  set.stillness = StillnessSettings<float>{};
   set.max_rest_seconds = 60.0f;
   ASSERT_EQ(m.reset(set), Status::kOk);
 
-  // 8 s still, a 2 s hole, 8 s still: two rests (each about 8 s less the trimmed window).
+  // 8 s still, a 2 s hole, 8 s still: two rests (each about 8 s less the trimmed blocks).
   sim::Random rng(1300);
   std::uint32_t t = 4000000000u;
   int gaps = 0;
@@ -683,7 +698,7 @@ TEST(RestMonitor, GapEndsTheRestAndSettingsAreChecked) {
   int n = 0;
   while (m.take(r)) {
     ++n;
-    EXPECT_NEAR(r.duration_s, 7.0f, 1.01f);
+    EXPECT_NEAR(r.duration_s, 7.7f, 0.35f);
     EXPECT_NEAR(r.accel_mean(2), 9.8f, 0.01f);
     EXPECT_TRUE(r.has_temperature);
     EXPECT_NEAR(r.temperature_c, 25.0f, 1e-4f);
@@ -722,7 +737,8 @@ TEST(TemperatureEndToEnd, MonitorThenFit) {
     plan.profile.end_c = 50.0;
     plan.profile.ramp_s = rests * 12.0;
     sim::TemperatureStream stream(truth, acc, gyro, plan, rng);
-    RestMonitor<float> monitor(monitor_settings<float>(acc, gyro));
+    RestMonitor<float> monitor(
+        monitor_settings<float>(acc, gyro, truth.raw_gyro(Vector3<double>::Zero(), 10.0)));
     const std::vector<FoundRest> found = run_monitor(stream, monitor, false);
     EXPECT_EQ(static_cast<int>(found.size()), rests);
     TemperatureFit<float> f;

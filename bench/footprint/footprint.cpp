@@ -105,7 +105,7 @@ int main() {
               imucal::to_string(s6), imucal::to_string(s7));
   // The temperature model: rests from the field monitor into the fit, applied by the corrector.
   imucal::RestMonitorSettings<float> rm;
-  rm.accel_var_max = rm.gyro_var_max = 1.0f;
+  rm.accel_noise = rm.gyro_noise = 1.0f;
   rest_monitor.reset(rm);
   const imucal::Status s8 = temperature_fit.reset(calibrator.calibration());
   for (int k = 0; k < 2000; ++k) {

@@ -1060,6 +1060,8 @@ class Calibrator {
                           : Scalar(0);
     r.samples = rest_.n;
     r.duration_s = d;
+    r.begin_us = rest_.t_begin;
+    r.end_us = rest_.t_end;
   }
 
   // Appends a block's gyro statistics to the move in progress, merged into the last segment

@@ -4,35 +4,28 @@
 // the temperature model keeps improving while the device is in use. Fixed memory (a few hundred
 // bytes), a handful of operations per sample, no allocation, no exceptions. Header-only.
 //
-// How it decides. Samples are grouped in windows of window_seconds. Per window: the sums and sums
-// of squares of the accelerometer and gyro readings, re-centred on the window's first reading
-// (so float keeps the noise's precision on raw counts ~33000). A window is still when the sum of
-// the three per-axis variances is at most accel_var_max for the accelerometer and at most
-// gyro_var_max for the gyro, and, if gyro_offset_max is set, its mean gyro reading lies within
-// gyro_offset_max (per axis) of gyro_rest_reading: variance alone cannot see a steady turn.
-// Consecutive still windows make a rest. Edges are trimmed causally: the first still window
-// after motion is dropped (the motion's tail), and each still window joins the rest only when the
-// next window is still too, so the window in which motion started is dropped as well. A rest
-// therefore loses about two windows: with the defaults a still spell must last about 7 s to give
-// a 5 s rest.
+// How it decides: with the calibrator's own detector (stillness.hpp), sample by sample, started
+// from the noise the calibration measured (accel_noise, gyro_noise: what the calibrator's
+// accel_noise_variance() and gyro_noise_variance() return, summed over the axes) and the raw gyro
+// reading at zero rate (gyro_rest_reading: minus the calibration's gyro bias). From there its
+// thresholds follow the rests and moves it sees, as in the calibrator: a rest held in the hand
+// counts, a steady slow turn does not (the gyro cue is the rate with the bias removed). The
+// zero-rate reading follows the gyro's mean over each rest handed out, so a bias that drifts with
+// temperature does not read as a turn.
+//
+// Trimming: still samples are summed in blocks of trim_seconds; a block joins the rest once the
+// next block has been still throughout, so the moments before motion (which the moving averages
+// see only after a few samples) are cut: between trim_seconds and twice that at the end of each
+// rest. The start is cut by the averages' decay after the motion.
 //
 // A rest ends at motion, at a gap in the timestamps (a step above max_step_seconds), when it
 // would exceed max_rest_seconds (a long rest on a slowly warming board yields several
-// temperature points), or, if accel_shift_max is set, when a still window's mean accelerometer
-// reading has moved from the rest's mean by more than accel_shift_max (a slow tilt that no
-// window's variance shows; leave room for the bias's drift over max_rest_seconds: 1 mg/deg C on a
-// board warming 2 deg C/min moves the mean by 2 mg in a minute). A rest of at least
-// min_rest_seconds is handed out by take(), once.
-//
-// Setting the thresholds. accel_var_max and gyro_var_max are in raw units squared, the sum over
-// the three axes of the per-axis variance of single samples. Take them from the calibration's
-// measured noise, a few times over: accel_var_max = k * Calibrator::accel_noise_variance().sum()
-// with k = 4 to 10 (the window variance of a still unit scatters by about sqrt(2/n) of itself, n
-// samples per window, so k = 4 is safe from 25 samples per window), and gyro_var_max likewise
-// from the gyro's per-axis variance at the initial rest (the calibrator does not expose it yet:
-// measure it over a known rest, or take k times the square of the datasheet's noise density times
-// sqrt(rate)). Real vibration (a running engine) raises the variance: such periods are simply not
-// rests.
+// temperature points), or, if accel_shift_max is set, when a block's mean accelerometer reading
+// has moved from the rest's mean by more than accel_shift_max (a slow tilt too gentle for the
+// detector; leave room for the bias's drift over max_rest_seconds: 1 mg/deg C on a board warming
+// 2 deg C/min moves the mean by 2 mg in a minute). A rest of at least min_rest_seconds of
+// stillness (the part trimmed before motion included) is handed out by take(), once. Real vibration
+// (a running engine) raises the accelerometer's variance: such periods are simply not rests.
 #pragma once
 
 #include <Eigen/Core>
@@ -44,28 +37,29 @@
 #include "imucal/calibrator.hpp"
 #include "imucal/normal_equations.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stillness.hpp"
 #include "imucal/temperature_model.hpp"
 
 namespace imucal {
 
 template <typename Scalar>
 struct RestMonitorSettings {
-  Scalar window_seconds = Scalar(1);
-  // Raw units squared, sum over the axes of the per-axis sample variance (see above). NaN: not
-  // set, and add() refuses every sample with kInvalidArgument.
-  Scalar accel_var_max = std::numeric_limits<Scalar>::quiet_NaN();
-  Scalar gyro_var_max = std::numeric_limits<Scalar>::quiet_NaN();
+  // The noise at rest, raw units squared: the variance of one sample, summed over the three axes
+  // (Calibrator::accel_noise_variance().sum(), gyro_noise_variance().sum()). NaN: not set, and
+  // add() refuses every sample with kInvalidArgument. gyro_noise = 0: no gyro cue (stillness
+  // from the accelerometer alone).
+  Scalar accel_noise = std::numeric_limits<Scalar>::quiet_NaN();
+  Scalar gyro_noise = std::numeric_limits<Scalar>::quiet_NaN();
+  // The raw gyro reading at zero rate (minus the calibration's bias) when the monitor starts.
+  Vector3<Scalar> gyro_rest_reading = Vector3<Scalar>::Zero();
+  StillnessSettings<Scalar> stillness{};  // the detector's settings, as in the calibrator
+  Scalar trim_seconds = Scalar(0.25);     // block length: what is cut before motion
   Scalar min_rest_seconds = Scalar(5);    // a shorter rest is not handed out
   Scalar max_rest_seconds = Scalar(60);   // a longer one is split
   Scalar max_step_seconds = Scalar(0.5);  // a larger timestamp step is a gap: the rest ends
-  // Optional: largest distance (raw units) of a still window's mean accelerometer reading from
-  // the rest's mean before the rest is ended and a new one begun. Infinity: not checked.
+  // Optional: largest distance (raw units) of a block's mean accelerometer reading from the
+  // rest's mean before the rest is ended and a new one begun. Infinity: not checked.
   Scalar accel_shift_max = std::numeric_limits<Scalar>::infinity();
-  // Optional: the raw gyro reading at zero rate (minus the calibration's bias) and how far (per
-  // axis, raw units) a still window's mean may be from it. Infinity: not checked. Leave room for
-  // the bias's drift with temperature.
-  Vector3<Scalar> gyro_rest_reading = Vector3<Scalar>::Zero();
-  Scalar gyro_offset_max = std::numeric_limits<Scalar>::infinity();
 };
 
 template <typename Scalar, int Queue = 4>
@@ -84,16 +78,14 @@ class RestMonitor {
     settings_ = settings;
     valid_ = check(settings);
     if (valid_) {
-      window_us_ = to_us(settings.window_seconds);
+      block_us_ = to_us(settings.trim_seconds);
       step_us_ = to_us(settings.max_step_seconds);
     }
-    have_prev_ = false;
+    started_ = have_prev_ = false;
     t_prev_ = 0;
-    window_ = Window{};
-    pending_ = Window{};
-    have_pending_ = false;
-    after_motion_ = false;
-    rest_ = Rest{};
+    gyro_zero_ = settings.gyro_rest_reading;
+    block_ = pending_ = rest_ = Sums{};
+    moving_ = Sums{};
     head_ = count_ = 0;
     dropped_ = 0;
     emitted_ = 0;
@@ -110,32 +102,57 @@ class RestMonitor {
     if (!all_finite(s.acc) || !all_finite(s.gyro) || std::isinf(s.temperature))
       return Status::kNonFiniteInput;
     Status result = Status::kOk;
+    Scalar dt = Scalar(0);
     if (have_prev_) {
       const std::int32_t d = static_cast<std::int32_t>(s.t_us - t_prev_);
       if (d == 0) return Status::kTimeRepeated;
       if (d < 0) return Status::kTimeBackwards;
       if (static_cast<std::uint32_t>(d) > step_us_) {
-        // The spell before the gap is cut short: its partial window and the unconfirmed one go.
-        window_ = Window{};
-        have_pending_ = false;
-        end_rest();
+        // The spell before the gap is cut short: its unconfirmed blocks go.
+        drop_unconfirmed_and_end_rest();
         result = Status::kTimestampGap;
+      } else {
+        dt = static_cast<Scalar>(d) * Scalar(1e-6);
       }
     }
-    if (window_.n > 0 && s.t_us - window_.t_first >= window_us_) close_window();
-    window_.add(s);
+    if (!started_) {
+      detector_.start(settings_.stillness, Vector3<Scalar>::Zero(),
+                      Vector3<Scalar>::Constant(settings_.accel_noise / Scalar(3)),
+                      settings_.gyro_noise);
+      a_ref_ = s.acc;
+      started_ = true;
+    }
+    const bool still = detector_.update(s.acc - a_ref_, s.gyro - gyro_zero_, dt, false);
+    if (!still) {
+      if (moving_.n == 0) drop_unconfirmed_and_end_rest();  // motion began
+      moving_.accel_cue += detector_.sample_accel();
+      moving_.energy_cue += detector_.sample_energy();
+      ++moving_.n;
+    } else {
+      if (moving_.n > 0) {
+        const Scalar inv_n = Scalar(1) / static_cast<Scalar>(moving_.n);
+        detector_.learn_motion(moving_.accel_cue * inv_n, moving_.energy_cue * inv_n);
+        moving_ = Sums{};
+      }
+      if (block_.n > 0 && s.t_us - block_.t_first >= block_us_) close_block();
+      if (!spell_.set) {
+        spell_.acc = s.acc;
+        spell_.gyro = s.gyro;
+        spell_.set = true;
+      }
+      block_.add(s, detector_.sample_accel(), detector_.sample_energy(), spell_);
+    }
     t_prev_ = s.t_us;
     have_prev_ = true;
     return result;
   }
 
-  // The stream ended (or the caller wants what is there now): the unconfirmed still window joins
-  // the rest (no motion followed it), the partial window is dropped, and the rest in progress is
-  // handed out if long enough.
+  // The stream ended (or the caller wants what is there now): the unconfirmed blocks join the
+  // rest (no motion followed them), and the rest in progress is handed out if long enough.
   void finish() {
-    window_ = Window{};
-    if (have_pending_) commit(pending_);
-    have_pending_ = false;
+    if (pending_.n > 0) rest_add(pending_);
+    if (block_.n > 0) rest_add(block_);
+    block_ = pending_ = Sums{};
     end_rest();
   }
 
@@ -154,66 +171,65 @@ class RestMonitor {
   std::uint32_t rests_found() const { return emitted_; }  // handed to the queue so far
   std::uint32_t dropped() const { return dropped_; }      // overwritten before take()
   const RestMonitorSettings<Scalar>& settings() const { return settings_; }
+  // The raw gyro reading at zero rate now: the latest rest's mean, or the setting before any.
+  const Vector3<Scalar>& gyro_rest_reading() const { return gyro_zero_; }
 
  private:
-  // Sums of one window, re-centred on its first reading (and first temperature).
-  struct Window {
+  // References of a still spell: its first sample's readings. Every sum of the spell (blocks and
+  // the rest) is relative to them, so float keeps the noise's precision on raw counts ~33000.
+  struct Spell {
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero(), gyro = Vector3<Scalar>::Zero();
+    Scalar temp = Scalar(0);
+    bool set = false, temp_set = false;
+  };
+
+  // Sums over a block, a rest, or a motion spell (cues only).
+  struct Sums {
     std::uint32_t n = 0, temp_n = 0;
     std::uint32_t t_first = 0, t_last = 0;
-    Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero(), acc_sum = Vector3<Scalar>::Zero(),
-                    acc_sq = Vector3<Scalar>::Zero();
-    Vector3<Scalar> gyro_ref = Vector3<Scalar>::Zero(), gyro_sum = Vector3<Scalar>::Zero(),
-                    gyro_sq = Vector3<Scalar>::Zero();
-    Scalar temp_ref = Scalar(0), temp_sum = Scalar(0);
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero(), gyro = Vector3<Scalar>::Zero();
+    Scalar temp = Scalar(0), accel_cue = Scalar(0), energy_cue = Scalar(0);
 
-    void add(const ImuSample<Scalar>& s) {
-      if (n == 0) {
-        t_first = s.t_us;
-        acc_ref = s.acc;
-        gyro_ref = s.gyro;
-      }
+    void add(const ImuSample<Scalar>& s, Scalar a_cue, Scalar e_cue, Spell& ref) {
+      if (n == 0) t_first = s.t_us;
       t_last = s.t_us;
       ++n;
-      const Vector3<Scalar> da = s.acc - acc_ref, dg = s.gyro - gyro_ref;
-      acc_sum += da;
-      acc_sq += da.cwiseProduct(da);
-      gyro_sum += dg;
-      gyro_sq += dg.cwiseProduct(dg);
+      acc += s.acc - ref.acc;
+      gyro += s.gyro - ref.gyro;
+      accel_cue += a_cue;
+      energy_cue += e_cue;
       if (!std::isnan(s.temperature)) {
-        if (temp_n == 0) temp_ref = s.temperature;
-        temp_sum += s.temperature - temp_ref;
+        if (!ref.temp_set) {
+          ref.temp = s.temperature;
+          ref.temp_set = true;
+        }
+        temp += s.temperature - ref.temp;
         ++temp_n;
       }
     }
-    Scalar count() const { return static_cast<Scalar>(n); }
-    Vector3<Scalar> acc_mean() const { return acc_ref + acc_sum / count(); }
-    Vector3<Scalar> gyro_mean() const { return gyro_ref + gyro_sum / count(); }
-    static Scalar variance_sum(const Vector3<Scalar>& sum, const Vector3<Scalar>& sq, Scalar n) {
-      const Vector3<Scalar> m = sum / n;
-      return (sq / n - m.cwiseProduct(m)).cwiseMax(Scalar(0)).sum();
+    void append(const Sums& b) {
+      if (n == 0) t_first = b.t_first;
+      t_last = b.t_last;
+      n += b.n;
+      temp_n += b.temp_n;
+      acc += b.acc;
+      gyro += b.gyro;
+      temp += b.temp;
+      accel_cue += b.accel_cue;
+      energy_cue += b.energy_cue;
     }
-  };
-
-  // A rest in progress: sums relative to its first window's references.
-  struct Rest {
-    std::uint32_t n = 0, temp_n = 0;
-    std::uint32_t t_first = 0, t_last = 0;
-    Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero(), acc_sum = Vector3<Scalar>::Zero();
-    Vector3<Scalar> gyro_ref = Vector3<Scalar>::Zero(), gyro_sum = Vector3<Scalar>::Zero();
-    Scalar temp_ref = Scalar(0), temp_sum = Scalar(0);
-    Vector3<Scalar> acc_mean() const { return acc_ref + acc_sum / static_cast<Scalar>(n); }
+    Vector3<Scalar> acc_mean() const { return acc / static_cast<Scalar>(n); }
   };
 
   static bool check(const RestMonitorSettings<Scalar>& s) {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
-    return positive(s.window_seconds) && s.window_seconds <= Scalar(600) &&
-           positive(s.accel_var_max) && positive(s.gyro_var_max) &&
-           std::isfinite(s.min_rest_seconds) && s.min_rest_seconds >= Scalar(0) &&
-           std::isfinite(s.max_rest_seconds) && s.max_rest_seconds >= s.window_seconds &&
+    return positive(s.accel_noise) && std::isfinite(s.gyro_noise) && s.gyro_noise >= Scalar(0) &&
+           all_finite(s.gyro_rest_reading) && s.stillness.valid() && positive(s.trim_seconds) &&
+           s.trim_seconds <= Scalar(60) && std::isfinite(s.min_rest_seconds) &&
+           s.min_rest_seconds >= Scalar(0) && std::isfinite(s.max_rest_seconds) &&
+           s.max_rest_seconds >= s.min_rest_seconds && s.max_rest_seconds >= s.trim_seconds &&
            positive(s.max_step_seconds) && s.max_step_seconds <= Scalar(600) &&
-           all_finite(s.gyro_rest_reading) && !std::isnan(s.gyro_offset_max) &&
-           s.gyro_offset_max > Scalar(0) && !std::isnan(s.accel_shift_max) &&
-           s.accel_shift_max > Scalar(0);
+           !std::isnan(s.accel_shift_max) && s.accel_shift_max > Scalar(0);
   }
 
   static std::uint32_t to_us(Scalar seconds) {
@@ -227,79 +243,63 @@ class RestMonitor {
     return span * static_cast<Scalar>(n) / static_cast<Scalar>(n - 1);
   }
 
-  bool still(const Window& w) const {
-    if (w.n < 2) return false;
-    const Scalar n = w.count();
-    if (!(Window::variance_sum(w.acc_sum, w.acc_sq, n) <= settings_.accel_var_max)) return false;
-    if (!(Window::variance_sum(w.gyro_sum, w.gyro_sq, n) <= settings_.gyro_var_max)) return false;
-    if (std::isfinite(settings_.gyro_offset_max)) {
-      const Vector3<Scalar> off = w.gyro_mean() - settings_.gyro_rest_reading;
-      if (!(off.cwiseAbs().maxCoeff() <= settings_.gyro_offset_max)) return false;
-    }
-    return true;
+  // A full block: the one before it (still throughout, and followed by a whole still block)
+  // joins the rest; this one waits.
+  void close_block() {
+    if (pending_.n > 0) rest_add(pending_);
+    pending_ = block_;
+    block_ = Sums{};
   }
 
-  void close_window() {
-    const Window w = window_;
-    window_ = Window{};
-    if (!still(w)) {
-      have_pending_ = false;  // the window in which the motion began: trimmed
-      end_rest();
-      after_motion_ = true;
-      return;
-    }
-    if (after_motion_) {  // the motion's tail: trimmed
-      after_motion_ = false;
-      return;
-    }
-    if (have_pending_) commit(pending_);
-    pending_ = w;
-    have_pending_ = true;
-  }
-
-  void commit(const Window& w) {
+  void rest_add(const Sums& b) {
     if (rest_.n > 0) {
-      const Vector3<Scalar> shift = w.acc_mean() - rest_.acc_mean();
+      const Vector3<Scalar> shift = b.acc_mean() - rest_.acc_mean();
       const bool tilted =
           std::isfinite(settings_.accel_shift_max) && !(shift.norm() <= settings_.accel_shift_max);
       const bool too_long =
-          duration(rest_.t_first, w.t_last, rest_.n + w.n) > settings_.max_rest_seconds;
+          duration(rest_.t_first, b.t_last, rest_.n + b.n) > settings_.max_rest_seconds;
       if (tilted || too_long) end_rest();
     }
-    if (rest_.n == 0) {
-      rest_ = Rest{};
-      rest_.t_first = w.t_first;
-      rest_.acc_ref = w.acc_ref;
-      rest_.gyro_ref = w.gyro_ref;
-      rest_.temp_ref = w.temp_ref;
-    }
-    const Scalar n = w.count();
-    rest_.acc_sum += w.acc_sum + n * (w.acc_ref - rest_.acc_ref);
-    rest_.gyro_sum += w.gyro_sum + n * (w.gyro_ref - rest_.gyro_ref);
-    if (w.temp_n > 0) {
-      if (rest_.temp_n == 0) rest_.temp_ref = w.temp_ref;
-      rest_.temp_sum += w.temp_sum + static_cast<Scalar>(w.temp_n) * (w.temp_ref - rest_.temp_ref);
-      rest_.temp_n += w.temp_n;
-    }
-    rest_.n += w.n;
-    rest_.t_last = w.t_last;
+    rest_.append(b);
   }
 
-  void end_rest() {
-    if (rest_.n == 0) return;
-    const Rest r = rest_;
-    rest_ = Rest{};
-    const Scalar d = duration(r.t_first, r.t_last, r.n);
-    if (!(d >= settings_.min_rest_seconds)) return;
-    RestSummary<Scalar> out;
+  // Motion or a gap: the unconfirmed blocks go, but they were still, and count towards the
+  // rest's length: the shortest rest handed out is min_rest_seconds of stillness, as in the
+  // calibrator.
+  void drop_unconfirmed_and_end_rest() {
+    const std::uint32_t still_end =
+        block_.n > 0 ? block_.t_last : (pending_.n > 0 ? pending_.t_last : rest_.t_last);
+    block_ = pending_ = Sums{};
+    end_rest(still_end);
+  }
+
+  void end_rest() { end_rest(rest_.t_last); }
+  void end_rest(std::uint32_t still_end) {
+    if (rest_.n == 0) {
+      spell_ = Spell{};
+      return;
+    }
+    const Sums r = rest_;
+    const Spell ref = spell_;
+    rest_ = Sums{};
+    if (block_.n == 0 && pending_.n == 0) spell_ = Spell{};  // else a split: the spell goes on
     const Scalar n = static_cast<Scalar>(r.n);
-    out.accel_mean = r.acc_ref + r.acc_sum / n;
-    out.gyro_mean = r.gyro_ref + r.gyro_sum / n;
+    detector_.learn_rest(r.accel_cue / n, r.energy_cue / n);
+    const Scalar d = duration(r.t_first, r.t_last, r.n);
+    const Scalar still = static_cast<Scalar>(still_end - r.t_first) * Scalar(1e-6) +
+                         (r.n > 1 ? d / n : Scalar(0));  // plus one sample interval
+    if (!(still >= settings_.min_rest_seconds)) return;
+    RestSummary<Scalar> out;
+    out.accel_mean = ref.acc + r.acc / n;
+    out.gyro_mean = ref.gyro + r.gyro / n;
+    gyro_zero_ = out.gyro_mean;
     out.has_temperature = r.temp_n > 0;
     out.temperature_c =
-        r.temp_n > 0 ? r.temp_ref + r.temp_sum / static_cast<Scalar>(r.temp_n) : Scalar(0);
+        r.temp_n > 0 ? ref.temp + r.temp / static_cast<Scalar>(r.temp_n) : Scalar(0);
     out.samples = r.n;
     out.duration_s = d;
+    out.begin_us = r.t_first;
+    out.end_us = r.t_last;
     if (count_ == Queue) {  // full: the oldest goes
       head_ = (head_ + 1) % Queue;
       --count_;
@@ -311,15 +311,13 @@ class RestMonitor {
   }
 
   RestMonitorSettings<Scalar> settings_{};
-  bool valid_ = false;
-  std::uint32_t window_us_ = 0, step_us_ = 0;
-  bool have_prev_ = false;
-  std::uint32_t t_prev_ = 0;
-  Window window_{};
-  Window pending_{};
-  bool have_pending_ = false;
-  bool after_motion_ = false;
-  Rest rest_{};
+  bool valid_ = false, started_ = false, have_prev_ = false;
+  std::uint32_t block_us_ = 0, step_us_ = 0, t_prev_ = 0;
+  StillnessDetector<Scalar> detector_{};
+  Vector3<Scalar> a_ref_ = Vector3<Scalar>::Zero();
+  Vector3<Scalar> gyro_zero_ = Vector3<Scalar>::Zero();
+  Spell spell_{};
+  Sums block_{}, pending_{}, rest_{}, moving_{};
   RestSummary<Scalar> queue_[static_cast<std::size_t>(Queue)] = {};
   int head_ = 0, count_ = 0;
   std::uint32_t dropped_ = 0, emitted_ = 0;

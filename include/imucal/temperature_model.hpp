@@ -25,6 +25,7 @@ struct RestSummary {
   bool has_temperature = false;
   std::uint32_t samples = 0;
   Scalar duration_s = Scalar(0);
+  std::uint32_t begin_us = 0, end_us = 0;  // timestamps of its first and last sample
 };
 
 template <typename Scalar>
