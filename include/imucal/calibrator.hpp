@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <new>
 #include <type_traits>
 
 #include "imucal/accel_calibration.hpp"
@@ -207,10 +208,8 @@ class Calibrator {
   static constexpr int kMaxSegments = MaxSegments;
 
   explicit Calibrator(const CalibratorSettings<Scalar>& settings = CalibratorSettings<Scalar>())
-      : settings_(settings),
-        accel_solver_(settings.accel),
-        gyro9_(settings.gyro),
-        gyro12_(settings.gyro) {
+      : settings_(settings), accel_solver_(settings.accel) {
+    make_gyro_solver();
     reset();
   }
 
@@ -219,8 +218,7 @@ class Calibrator {
   void reset(const CalibratorSettings<Scalar>& settings) {
     settings_ = settings;
     accel_solver_ = AccelSolver<Scalar>(settings.accel);
-    gyro9_ = GyroSolver<Scalar, kGyroMatrixParams>(settings.gyro);
-    gyro12_ = GyroSolver<Scalar, kGyroParams>(settings.gyro);
+    make_gyro_solver();
     reset();
   }
 
@@ -483,12 +481,12 @@ class Calibrator {
       start_gyro();
       return phase_ == Phase::kFailed ? calibration_status() : Status::kRunning;
     }
-    const Status s = settings_.gyro.refine_bias ? gyro12_.step() : gyro9_.step();
+    const Status s = settings_.gyro.refine_bias ? gyro_.twelve().step() : gyro_.nine().step();
     if (s == Status::kRunning) return s;
     if (settings_.gyro.refine_bias) {
-      gyro12_.finish(calibration_.gyro);
+      gyro_.twelve().finish(calibration_.gyro);
     } else {
-      gyro9_.finish(calibration_.gyro);
+      gyro_.nine().finish(calibration_.gyro);
       if (succeeded(calibration_.gyro.status))  // the bias is the rests' mean rate
         calibration_.gyro.sigma.template tail<3>() = rest_bias_sigma();
     }
@@ -536,6 +534,8 @@ class Calibrator {
   const RestSummary<Scalar>& last_rest() const { return last_rest_; }
 
  private:
+  void make_gyro_solver() { gyro_.make(settings_.gyro); }
+
   enum class SolveStage : std::uint8_t { kAccel, kGyro };
 
   // A run of consecutive samples, all still or all moving: gyro statistics (of u = w + b0),
@@ -1258,8 +1258,8 @@ class Calibrator {
     data.up = up_;
     data.pose_count = poses_.size();
     if (rate_time_ > Scalar(0)) data.bias_shift = -rate_sum_ / rate_time_;
-    const Status s =
-        settings_.gyro.refine_bias ? gyro12_.start(data, b0_) : gyro9_.start(data, b0_);
+    const Status s = settings_.gyro.refine_bias ? gyro_.twelve().start(data, b0_)
+                                                : gyro_.nine().start(data, b0_);
     if (s != Status::kRunning) {
       calibration_.gyro = GyroCalibration<Scalar>{};
       calibration_.gyro.status = s;
@@ -1443,8 +1443,46 @@ class Calibrator {
   // Solving.
   Vector3<Scalar> up_[static_cast<std::size_t>(MaxPoses)] = {};
   AccelSolver<Scalar> accel_solver_;
-  GyroSolver<Scalar, kGyroMatrixParams> gyro9_;
-  GyroSolver<Scalar, kGyroParams> gyro12_;
+  // The gyro solver that settings.gyro.refine_bias picks. Only one is ever used per run, so they
+  // share memory (920 B saved); built in place, copied as the one that is there.
+  using Gyro9 = GyroSolver<Scalar, kGyroMatrixParams>;
+  using Gyro12 = GyroSolver<Scalar, kGyroParams>;
+  static_assert(std::is_trivially_destructible<Gyro9>::value &&
+                    std::is_trivially_destructible<Gyro12>::value,
+                "the gyro solvers are rebuilt in place without a destructor call");
+  class GyroSolvers {
+   public:
+    GyroSolvers() { new (&u_.nine) Gyro9(GyroSettings<Scalar>{}); }
+    GyroSolvers(const GyroSolvers& o) { copy_from(o); }
+    GyroSolvers& operator=(const GyroSolvers& o) {
+      if (this != &o) copy_from(o);
+      return *this;
+    }
+    void make(const GyroSettings<Scalar>& s) {
+      twelve_ = s.refine_bias;
+      if (twelve_)
+        new (&u_.twelve) Gyro12(s);
+      else
+        new (&u_.nine) Gyro9(s);
+    }
+    Gyro9& nine() { return u_.nine; }
+    Gyro12& twelve() { return u_.twelve; }
+
+   private:
+    void copy_from(const GyroSolvers& o) {
+      twelve_ = o.twelve_;
+      if (twelve_)
+        new (&u_.twelve) Gyro12(o.u_.twelve);
+      else
+        new (&u_.nine) Gyro9(o.u_.nine);
+    }
+    union U {
+      U() {}
+      Gyro9 nine;
+      Gyro12 twelve;
+    } u_;
+    bool twelve_ = false;
+  } gyro_;
   Calibration<Scalar> calibration_{};
 };
 
