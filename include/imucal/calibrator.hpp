@@ -1304,6 +1304,8 @@ class Calibrator {
     if (!succeeded(calibration_.accel.status)) return Quality::kNone;
     if (settings_.has_gyro && !succeeded(calibration_.gyro.status)) return Quality::kPoor;
     if (faces() != 0x3f) return Quality::kFair;
+    // A parameter held at 0 or barely determined (named in the calibration, with the hint).
+    if (calibration_.accel.held != 0 || calibration_.accel.weak != 0) return Quality::kFair;
     // Noise of a pose mean in m/s^2: the per-sample noise (initial rest) over sqrt(samples).
     const AccelVector<Scalar>& p = calibration_.accel.params;
     const Vector3<Scalar> sd(std::sqrt(v0_(0)) * p(kScaleX), std::sqrt(v0_(1)) * p(kScaleY),
