@@ -35,7 +35,6 @@
 
 #include <Eigen/Core>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 #include <new>
 #include <type_traits>
@@ -95,7 +94,8 @@ struct CalibratorSettings {
   // ignored and counted; the sample is taken.
   Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
   // After the initial rest, an accelerometer reading (not at full scale) further than this many
-  // noise sigmas (the initial rest's) from the moving mean is a glitch: refused and counted.
+  // noise sigmas (the initial rest's, its noisiest axis) from the moving mean (the distance over
+  // the three axes) is a glitch: refused and counted.
   // 1e5 sigma is 100 g or more for any MEMS accelerometer's noise: a value no sensor reads (an
   // ADC's own limit is far inside for 16-bit counts).
   Scalar glitch_sigma = Scalar(1e5);
@@ -267,9 +267,11 @@ class Calibrator {
         settings_.gyro.nominal_scale > Scalar(0) ? settings_.gyro.nominal_scale : Scalar(1);
     seg_angle_ = settings_.segment_max_angle / scale;
     seg_error_ = settings_.segment_max_error / (scale * scale * scale);
-    seg_error2_ = seg_error_ * seg_error_;
+    set_segment_error(seg_error_);
     block_us_ = static_cast<std::uint32_t>(settings_.block_seconds * Scalar(1e6));
     trim_us_ = static_cast<std::uint32_t>(settings_.trim_seconds * Scalar(1e6));
+    inside_ball(settings_.accel_min, settings_.accel_max, acc_centre_, acc_radius2_);
+    inside_ball(settings_.gyro_min, settings_.gyro_max, gyro_centre_, gyro_radius2_);
     settings_ok_ = check_settings();
   }
 
@@ -281,127 +283,10 @@ class Calibrator {
   // kCapacityExceeded (pose store full). Every case is counted in progress().stream.
   Status add(const ImuSample<Scalar>& sample) {
     if (!settings_ok_) return refuse(Status::kInvalidArgument);
+    if (settings_.has_gyro) return take(sample);
     ImuSample<Scalar> s = sample;
-    if (!settings_.has_gyro) s.gyro.setZero();  // ignored, whatever it holds
-    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed) {
-      ++counts_.busy;
-      return refuse(Status::kBusy);
-    }
-    // One test for all six readings: x - x is 0 for a finite x and NaN otherwise.
-    const Scalar nan_if_any = (s.acc - s.acc).sum() + (s.gyro - s.gyro).sum();
-    if (!(nan_if_any == Scalar(0))) {
-      ++counts_.non_finite;
-      return refuse(Status::kNonFiniteInput);
-    }
-    std::int32_t step = 0;
-    Status result = Status::kOk;
-    if (have_prev_) {
-      step = static_cast<std::int32_t>(s.t_us - t_prev_);
-      if (step == 0) {
-        ++counts_.time_repeated;
-        return refuse(Status::kTimeRepeated);
-      }
-      if (step < 0) {
-        if (!clock_went_back(s.t_us)) {
-          ++counts_.time_backwards;
-          return refuse(Status::kTimeBackwards);
-        }
-        // Reset: this sample starts the stream again, as after a gap.
-        ++counts_.clock_resets;
-        on_gap();
-        result = last_event_ = Status::kClockReset;
-        restart_stream_ = true;
-      }
-    }
-    back_run_ = 0;
-    const bool gyro_saturated = outside(s.gyro, settings_.gyro_min, settings_.gyro_max);
-    const bool acc_saturated = outside(s.acc, settings_.accel_min, settings_.accel_max);
-    Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
-    // Frozen: either sensor's reading bit-identical to its previous one for frozen_seconds.
-    if (have_prev_ && !restart_stream_ &&
-        (same_bits(s.acc, acc_prev_) || (settings_.has_gyro && same_bits(s.gyro, gyro_prev_)))) {
-      frozen_time_ += dt;
-      t_prev_ = s.t_us;
-      if (frozen_time_ >= settings_.frozen_seconds) {
-        if (!frozen_) on_frozen();
-        frozen_ = true;
-        ++counts_.frozen;
-        ++samples_refused_;
-        return Status::kSensorFrozen;
-      }
-    } else if (frozen_time_ > Scalar(0)) {
-      frozen_time_ = Scalar(0);
-      if (frozen_) {
-        frozen_ = false;
-        restart_stream_ = true;  // the stream starts again after the frozen spell
-      }
-    }
-    const std::uint32_t t_before = t_prev_;
-    const Vector3<Scalar> acc_before = acc_prev_, gyro_before = gyro_prev_;
-    acc_prev_ = s.acc;
-    gyro_prev_ = s.gyro;
-    t_prev_ = s.t_us;
-    have_prev_ = true;
-    if (gyro_saturated) {
-      // The rotation over this interval is unknown: nothing can be integrated across it.
-      ++counts_.gyro_saturated;
-      if (!restart_stream_) on_gap();
-      restart_stream_ = true;
-      last_event_ = Status::kSaturated;
-      return refuse(Status::kSaturated);
-    }
-    if (!restart_stream_ && static_cast<std::uint32_t>(step) > gap_us_) {
-      ++counts_.gaps;
-      on_gap();
-      result = last_event_ = Status::kTimestampGap;
-      restart_stream_ = true;
-    }
-    if (restart_stream_) {  // first sample after a start, a gap or a reset: no interval
-      dt = Scalar(0);
-      step = 0;
-      restart_stream_ = false;
-      rate_us_ = 0;
-      rate_n_ = 0;
-    }
-    if (s.temperature == s.temperature) {  // NaN: no temperature sensor
-      if (s.temperature >= settings_.temperature_min_c &&
-          s.temperature <= settings_.temperature_max_c) {
-        add_temperature(s.temperature);
-      } else {
-        ++counts_.temperature_bad;
-        s.temperature = std::numeric_limits<Scalar>::quiet_NaN();
-        if (result == Status::kOk) result = last_event_ = Status::kTemperatureImplausible;
-      }
-    }
-    if (acc_saturated) {
-      ++counts_.accel_saturated;
-      result = last_event_ = Status::kSaturated;
-    }
-    if (settings_.nominal_rate_hz > Scalar(0) && rate_window(static_cast<std::uint32_t>(step)) &&
-        result == Status::kOk)
-      result = Status::kSampleRateOff;
-    if (phase_ == Phase::kInitialRest) {
-      // A saturated accelerometer cannot be at rest: the initial rest starts again.
-      if (acc_saturated) restart_initial_rest();
-      const Status r = acc_saturated ? Status::kOk : initial_rest_sample(s, dt);
-      return r == Status::kOk ? result : r;
-    }
-    if (!acc_saturated && detector_.far_from_mean(s.acc - a_ref_, glitch2_)) {
-      // Not taken: a reading this far off is no acceleration a hand makes. The previous
-      // sample's time stays the reference, so the interval spans the refused one.
-      ++counts_.glitches;
-      t_prev_ = t_before;
-      acc_prev_ = acc_before;
-      gyro_prev_ = gyro_before;
-      last_event_ = Status::kGlitch;
-      return refuse(Status::kGlitch);
-    }
-    collect_sample(s, dt, acc_saturated);
-    if (pose_store_full_reported_ && result == Status::kOk) {
-      pose_store_full_reported_ = false;
-      return Status::kCapacityExceeded;
-    }
-    return result;
+    s.gyro.setZero();  // ignored, whatever it reads
+    return take(s);
   }
 
   Progress progress() const {
@@ -534,6 +419,130 @@ class Calibrator {
   const RestSummary<Scalar>& last_rest() const { return last_rest_; }
 
  private:
+  // add() of a sample whose gyro reading is to be used.
+  Status take(const ImuSample<Scalar>& s) {
+    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed) {
+      ++counts_.busy;
+      return refuse(Status::kBusy);
+    }
+    // Every reading finite and inside its full scale: one test per sensor on the usual path
+    // (inside a ball within the box of the limits; NaN fails it), exact tests only outside it.
+    bool gyro_saturated = false, acc_saturated = false;
+    if (!((s.acc.array() - acc_centre_).matrix().squaredNorm() < acc_radius2_ &&
+          (s.gyro.array() - gyro_centre_).matrix().squaredNorm() < gyro_radius2_)) {
+      // x - x is 0 for a finite x and NaN otherwise.
+      const Scalar nan_if_any = (s.acc - s.acc).sum() + (s.gyro - s.gyro).sum();
+      if (!(nan_if_any == Scalar(0))) {
+        ++counts_.non_finite;
+        return refuse(Status::kNonFiniteInput);
+      }
+      gyro_saturated = outside(s.gyro, settings_.gyro_min, settings_.gyro_max);
+      acc_saturated = outside(s.acc, settings_.accel_min, settings_.accel_max);
+    }
+    std::int32_t step = 0;
+    Status result = Status::kOk;
+    if (have_prev_) {
+      step = static_cast<std::int32_t>(s.t_us - t_prev_);
+      if (step == 0) {
+        ++counts_.time_repeated;
+        return refuse(Status::kTimeRepeated);
+      }
+      if (step < 0) {
+        if (!clock_went_back(s.t_us)) {
+          ++counts_.time_backwards;
+          return refuse(Status::kTimeBackwards);
+        }
+        // Reset: this sample starts the stream again, as after a gap.
+        ++counts_.clock_resets;
+        on_gap();
+        result = last_event_ = Status::kClockReset;
+        restart_stream_ = true;
+      }
+    }
+    back_run_ = 0;
+    Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
+    // Frozen: either sensor's reading the same as its previous one for frozen_seconds.
+    if (have_prev_ && !restart_stream_ &&
+        (same_reading(s.acc, acc_prev_) ||
+         (settings_.has_gyro && same_reading(s.gyro, gyro_prev_)))) {
+      frozen_time_ += dt;
+      t_prev_ = s.t_us;
+      if (frozen_time_ >= settings_.frozen_seconds) {
+        if (!frozen_) on_frozen();
+        frozen_ = true;
+        ++counts_.frozen;
+        ++samples_refused_;
+        return Status::kSensorFrozen;
+      }
+    } else if (frozen_time_ > Scalar(0)) {
+      frozen_time_ = Scalar(0);
+      if (frozen_) {
+        frozen_ = false;
+        restart_stream_ = true;  // the stream starts again after the frozen spell
+      }
+    }
+    if (gyro_saturated) {
+      remember(s);
+      // The rotation over this interval is unknown: nothing can be integrated across it.
+      ++counts_.gyro_saturated;
+      if (!restart_stream_) on_gap();
+      restart_stream_ = true;
+      last_event_ = Status::kSaturated;
+      return refuse(Status::kSaturated);
+    }
+    if (!restart_stream_ && static_cast<std::uint32_t>(step) > gap_us_) {
+      ++counts_.gaps;
+      on_gap();
+      result = last_event_ = Status::kTimestampGap;
+      restart_stream_ = true;
+    }
+    if (restart_stream_) {  // first sample after a start, a gap or a reset: no interval
+      dt = Scalar(0);
+      step = 0;
+      restart_stream_ = false;
+      rate_us_ = 0;
+      rate_n_ = 0;
+    }
+    Scalar temperature = s.temperature;
+    if (temperature == temperature) {  // NaN: no temperature sensor
+      if (temperature >= settings_.temperature_min_c &&
+          temperature <= settings_.temperature_max_c) {
+        add_temperature(temperature);
+      } else {
+        ++counts_.temperature_bad;
+        temperature = std::numeric_limits<Scalar>::quiet_NaN();
+        if (result == Status::kOk) result = last_event_ = Status::kTemperatureImplausible;
+      }
+    }
+    if (acc_saturated) {
+      ++counts_.accel_saturated;
+      result = last_event_ = Status::kSaturated;
+    }
+    if (settings_.nominal_rate_hz > Scalar(0) && rate_window(static_cast<std::uint32_t>(step)) &&
+        result == Status::kOk)
+      result = Status::kSampleRateOff;
+    if (phase_ == Phase::kInitialRest) {
+      remember(s);
+      // A saturated accelerometer cannot be at rest: the initial rest starts again.
+      if (acc_saturated) restart_initial_rest();
+      const Status r = acc_saturated ? Status::kOk : initial_rest_sample(s, dt);
+      return r == Status::kOk ? result : r;
+    }
+    if (!collect_sample(s, temperature, dt, acc_saturated)) {
+      // Not taken: a reading this far off is no acceleration a hand makes. The previous
+      // sample stays the reference, so the interval spans the refused one.
+      ++counts_.glitches;
+      last_event_ = Status::kGlitch;
+      return refuse(Status::kGlitch);
+    }
+    remember(s);
+    if (pose_store_full_reported_ && result == Status::kOk) {
+      pose_store_full_reported_ = false;
+      return Status::kCapacityExceeded;
+    }
+    return result;
+  }
+
   void make_gyro_solver() { gyro_.make(settings_.gyro); }
 
   enum class SolveStage : std::uint8_t { kAccel, kGyro };
@@ -657,14 +666,11 @@ class Calibrator {
            c.max_step_seconds <= Scalar(60);
   }
 
-  // Bit-identical readings (integer compares: cheaper than float ones on a Cortex-M).
-  static bool same_bits(const Vector3<Scalar>& a, const Vector3<Scalar>& b) {
-    using Bits = std::conditional_t<sizeof(Scalar) == 8, std::uint64_t, std::uint32_t>;
-    static_assert(sizeof(Bits) == sizeof(Scalar), "float or double");
-    Bits x[3], y[3];
-    std::memcpy(x, a.data(), sizeof x);
-    std::memcpy(y, b.data(), sizeof y);
-    return x[0] == y[0] && x[1] == y[1] && x[2] == y[2];
+  // The same reading on every axis (finite readings only: NaN was refused before). Compared
+  // axis by axis, the first that differs ends it: on a live sensor that is nearly always the
+  // first.
+  static bool same_reading(const Vector3<Scalar>& a, const Vector3<Scalar>& b) {
+    return a(0) == b(0) && a(1) == b(1) && a(2) == b(2);
   }
 
   // The largest step that is not a gap, in microseconds.
@@ -676,9 +682,43 @@ class Calibrator {
     gap_us_ = static_cast<std::uint32_t>(limit * Scalar(1e6));
   }
 
+  // The error bound |alpha| |beta| of a new segment, and the path angle below which a segment
+  // cannot reach it: |alpha| <= path and |beta| <= path^2 / 2, so |alpha| |beta| <= path^3 / 2
+  // (with a margin for rounding: 0.9^3 of the bound).
+  void set_segment_error(Scalar e) {
+    seg_error_ = e;
+    seg_error2_ = e * e;
+    seg_error_path_ = Scalar(0.9) * std::cbrt(Scalar(2) * e);
+  }
+
+  // The sample taken (or refused for its gyro) is the one the next is ordered against.
+  void remember(const ImuSample<Scalar>& s) {
+    acc_prev_ = s.acc;
+    gyro_prev_ = s.gyro;
+    t_prev_ = s.t_us;
+    have_prev_ = true;
+  }
+
   Status refuse(Status s) {
     ++samples_refused_;
     return s;
+  }
+
+  // The ball that add() tests a reading against first: centred in the box [lo, hi]^3, a radius
+  // a little inside its half-width, so a reading in it is inside the limits on every axis despite
+  // rounding. Limits that give no finite centre: an empty ball (every reading tested exactly).
+  static void inside_ball(Scalar lo, Scalar hi, Scalar& centre, Scalar& radius2) {
+    const Scalar c = Scalar(0.5) * lo + Scalar(0.5) * hi;
+    const Scalar r = (Scalar(0.5) * hi - Scalar(0.5) * lo) * (Scalar(1) - Scalar(1) / Scalar(1024));
+    if (lo == -std::numeric_limits<Scalar>::infinity() &&
+        hi == std::numeric_limits<Scalar>::infinity()) {  // no limits: finite is inside
+      centre = Scalar(0);
+      radius2 = std::numeric_limits<Scalar>::infinity();
+      return;
+    }
+    const bool usable = std::isfinite(c) && std::isfinite(r) && r > Scalar(0);
+    centre = usable ? c : Scalar(0);
+    radius2 = usable ? r * r : Scalar(-1);  // r * r may be +inf: then every finite norm is in
   }
 
   // Any axis at or beyond the full-scale limits (NaN was refused before).
@@ -819,7 +859,7 @@ class Calibrator {
     period_ = static_cast<Scalar>(t_end - t_begin) * Scalar(1e-6) / (n - Scalar(1));
     // The detector starts from the rest's own statistics.
     detector_.start(settings_.stillness, acc_mean, v0_, gv0_.sum());
-    glitch2_ = settings_.glitch_sigma * settings_.glitch_sigma * v0_.maxCoeff();
+    detector_.set_glitch_limit(settings_.glitch_sigma * settings_.glitch_sigma * v0_.maxCoeff());
     // The initial rest is the first rest: it becomes pose 0 when the first move starts.
     rest_ = Block{};
     rest_.acc_ref = a_ref_;
@@ -844,25 +884,27 @@ class Calibrator {
   // ---- Collection ----------------------------------------------------------------------------
 
   // The per-sample path, written per axis with the thresholds precomputed (bench_stream counts
-  // its instructions): the detector, then the sample folded into the current block.
-  void collect_sample(const ImuSample<Scalar>& s, Scalar dt, bool moving) {
+  // its instructions): the detector, then the sample folded into the current block. False: a
+  // glitch (nothing changed).
+  bool collect_sample(const ImuSample<Scalar>& s, Scalar temperature, Scalar dt, bool moving) {
     // The rate over the interval is the mean of its two end samples (trapezoid, as the RK4
     // reference interpolates linearly between samples): holding the newer sample instead
     // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale. (A
     // first sample has dt = 0: whatever u_prev_ holds then adds nothing.)
-    Vector3<Scalar> u, u_mid;
+    const Vector3<Scalar> u = s.gyro + b0_;
+    const Stillness step = detector_.update(s.acc - a_ref_, u, dt, moving);
+    if (step == Stillness::kGlitch) return false;
+    const bool still = step == Stillness::kStill;
+    last_still_ = still;
+    Vector3<Scalar> u_mid;
     Scalar path2 = Scalar(0);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
-      const Scalar ui = s.gyro(i) + b0_(i);
-      const Scalar mi = Scalar(0.5) * (ui + u_prev_(i));
-      u(i) = ui;
-      u_prev_(i) = ui;
+      const Scalar mi = Scalar(0.5) * (u(i) + u_prev_(i));
+      u_prev_(i) = u(i);
       path2 += mi * mi;
       u_mid(i) = mi;
     }
-    const bool still = detector_.update(s.acc - a_ref_, u, dt, moving);
-    last_still_ = still;
     // Blocks are homogeneous, short, and valid segments: close before a change of state or
     // a path angle above the segment bound, after the duration or the error bound.
     const Scalar step_path = std::sqrt(path2) * dt;
@@ -878,15 +920,17 @@ class Calibrator {
     block_.path += step_path;
     block_.accel_cue += detector_.sample_accel();
     block_.energy_cue += detector_.sample_energy();
-    if (s.temperature == s.temperature) {
-      block_.temp_sum += s.temperature - temp_ref_;
+    if (temperature == temperature) {
+      block_.temp_sum += temperature - temp_ref_;
       ++block_.temp_n;
     }
     ++block_.n;
     block_.t_end = s.t_us;
     if (s.t_us - block_.t_begin >= block_us_ ||
-        block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > seg_error2_)
+        (block_.path > seg_error_path_ &&
+         block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > seg_error2_))
       close_block();
+    return true;
   }
 
   // Routes the current block (by reference into the ring: no copies on the per-sample path).
@@ -902,8 +946,7 @@ class Calibrator {
       }
       return;
     }
-    const Scalar inv_n = Scalar(1) / static_cast<Scalar>(block_.n);
-    detector_.learn_motion(block_.accel_cue * inv_n, block_.energy_cue * inv_n);
+    detector_.learn_motion(block_.energy_cue / static_cast<Scalar>(block_.n));
     motion_after(block_);
     block_.clear();
   }
@@ -1134,8 +1177,7 @@ class Calibrator {
       tau *= Scalar(2);
     merge_pass(tau, true);
     seg_angle_ *= Scalar(2);
-    seg_error_ *= Scalar(2);
-    seg_error2_ = seg_error_ * seg_error_;
+    set_segment_error(Scalar(2) * seg_error_);
     last_mergeable_ = false;
     ++coarsenings_;
   }
@@ -1389,6 +1431,9 @@ class Calibrator {
   std::uint32_t temp_n_ = 0;
   std::uint32_t t_prev_ = 0;
   Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();
+  // The full-scale limits as balls (inside_ball(): the centre's coordinate on every axis).
+  Scalar acc_centre_ = Scalar(0), gyro_centre_ = Scalar(0);
+  Scalar acc_radius2_ = Scalar(-1), gyro_radius2_ = Scalar(-1);
   Scalar frozen_time_ = Scalar(0);
   bool frozen_ = false;
   InitialRest init_{};
@@ -1404,7 +1449,6 @@ class Calibrator {
 
   // Detector.
   StillnessDetector<Scalar> detector_{};
-  Scalar glitch2_ = Scalar(0);  // squared distance from the moving mean beyond which: a glitch
   bool last_still_ = true;
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();  // previous bias-corrected rate
 
@@ -1435,6 +1479,7 @@ class Calibrator {
   Scalar rate_time_ = Scalar(0);
   int rate_rests_ = 0;
   Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0), seg_error2_ = Scalar(0);  // raw units
+  Scalar seg_error_path_ = Scalar(0);  // set_segment_error()
   std::uint32_t block_us_ = 0, trim_us_ = 0, gap_us_ = 0;
   Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();  // |alpha| per axis over the moves
 

@@ -85,7 +85,8 @@ class RestMonitor {
     t_prev_ = 0;
     gyro_zero_ = settings.gyro_rest_reading;
     block_ = pending_ = rest_ = Sums{};
-    moving_ = Sums{};
+    moving_energy_ = Scalar(0);
+    moving_n_ = 0;
     head_ = count_ = 0;
     dropped_ = 0;
     emitted_ = 0;
@@ -122,17 +123,17 @@ class RestMonitor {
       a_ref_ = s.acc;
       started_ = true;
     }
-    const bool still = detector_.update(s.acc - a_ref_, s.gyro - gyro_zero_, dt, false);
+    const bool still =
+        detector_.update(s.acc - a_ref_, s.gyro - gyro_zero_, dt, false) == Stillness::kStill;
     if (!still) {
-      if (moving_.n == 0) drop_unconfirmed_and_end_rest();  // motion began
-      moving_.accel_cue += detector_.sample_accel();
-      moving_.energy_cue += detector_.sample_energy();
-      ++moving_.n;
+      if (moving_n_ == 0) drop_unconfirmed_and_end_rest();  // motion began
+      moving_energy_ += detector_.sample_energy();
+      ++moving_n_;
     } else {
-      if (moving_.n > 0) {
-        const Scalar inv_n = Scalar(1) / static_cast<Scalar>(moving_.n);
-        detector_.learn_motion(moving_.accel_cue * inv_n, moving_.energy_cue * inv_n);
-        moving_ = Sums{};
+      if (moving_n_ > 0) {
+        detector_.learn_motion(moving_energy_ / static_cast<Scalar>(moving_n_));
+        moving_energy_ = Scalar(0);
+        moving_n_ = 0;
       }
       if (block_.n > 0 && s.t_us - block_.t_first >= block_us_) close_block();
       if (!spell_.set) {
@@ -317,7 +318,9 @@ class RestMonitor {
   Vector3<Scalar> a_ref_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> gyro_zero_ = Vector3<Scalar>::Zero();
   Spell spell_{};
-  Sums block_{}, pending_{}, rest_{}, moving_{};
+  Sums block_{}, pending_{}, rest_{};
+  Scalar moving_energy_ = Scalar(0);  // the gyro cue summed over the move so far
+  std::uint32_t moving_n_ = 0;
   RestSummary<Scalar> queue_[static_cast<std::size_t>(Queue)] = {};
   int head_ = 0, count_ = 0;
   std::uint32_t dropped_ = 0, emitted_ = 0;

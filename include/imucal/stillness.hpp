@@ -11,8 +11,8 @@
 // within two or three samples.
 //
 // Thresholds follow the data. Each cue keeps the level it has in rests (its floor, learned from
-// every rest) and the level of the moves (an upper envelope: it rises at once, decays slowly),
-// both from what the caller classified (learn_rest, learn_motion, with the means of the
+// every rest), the gyro also the level of the moves (an upper envelope: it rises at once, decays
+// slowly), both from what the caller classified (learn_rest, learn_motion, with the means of the
 // unclipped per-sample cues sample_accel() and sample_energy()). The threshold is `k` times the
 // floor; for the gyro, if higher, a point between the first rest's floor and the move level on a
 // log scale (a fraction `gap` of the way up, at most `reach` times that floor): a rest held in
@@ -24,10 +24,55 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 
-#include "imucal/normal_equations.hpp"
+#include "imucal/accel_model.hpp"  // Vector3
 
 namespace imucal {
+
+// log2 and exp2 for the detector's move level, which moves once per block in motion: in double
+// the library's own; in float written out (a tenth of the instructions of picolibc's powf on a
+// Cortex-M4F), within 2e-7 of the exact value (log2: absolute; exp2: relative) for normal,
+// finite arguments. Anything else goes to std::log2 / std::exp2.
+namespace detail {
+inline double log2_of(double x) { return std::log2(x); }
+inline double exp2_of(double y) { return std::exp2(y); }
+
+inline float log2_of(float x) {
+  if (!(x >= std::numeric_limits<float>::min() && x <= std::numeric_limits<float>::max()))
+    return std::log2(x);
+  std::uint32_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  int e = static_cast<int>(bits >> 23) - 127;  // x > 0: no sign bit
+  bits = (bits & 0x007fffffu) | 0x3f800000u;   // the mantissa m in [1, 2)
+  float m;
+  std::memcpy(&m, &bits, sizeof m);
+  if (m > 1.41421356f) {  // m in [sqrt(1/2), sqrt(2)): ln m = 2 atanh(t), |t| <= 0.1716
+    m *= 0.5f;
+    ++e;
+  }
+  const float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
+  const float ln_m = t * (2.0f + t2 * (2.0f / 3.0f + t2 * (2.0f / 5.0f + t2 * (2.0f / 7.0f))));
+  return static_cast<float>(e) + ln_m * 1.44269504f;
+}
+
+inline float exp2_of(float y) {
+  if (!(y > -126.0f && y < 127.0f)) return std::exp2(y);
+  const int n = static_cast<int>(y + 128.5f) - 128;  // nearest integer (the sum is positive)
+  const float z = (y - static_cast<float>(n)) * 0.693147181f;  // |z| <= ln(2) / 2
+  const float p =
+      1.0f +
+      z * (1.0f + z * (0.5f + z * (1.0f / 6.0f +
+                                   z * (1.0f / 24.0f +
+                                        z * (1.0f / 120.0f + z * (1.0f / 720.0f + z / 5040.0f))))));
+  const std::uint32_t bits = static_cast<std::uint32_t>(n + 127) << 23;  // 2^n, n in [-126, 127]
+  float scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  return p * scale;
+}
+}  // namespace detail
 
 template <typename Scalar>
 struct StillnessSettings {
@@ -44,6 +89,9 @@ struct StillnessSettings {
   }
 };
 
+// What update() made of a sample.
+enum class Stillness : std::uint8_t { kMoving, kStill, kGlitch };
+
 template <typename Scalar>
 class StillnessDetector {
  public:
@@ -56,28 +104,39 @@ class StillnessDetector {
     mean_ = acc_mean;
     var_ = acc_var;
     energy_ = gyro_energy;
-    first_acc_ = rest_acc_ = acc_var.sum();
+    rest_acc_ = acc_var.sum();
     first_energy_ = rest_energy_ = gyro_energy;
-    move_acc_ = move_energy_ = Scalar(0);
+    move_log_ = -std::numeric_limits<Scalar>::infinity();  // no move yet
+    first_log_ = first_energy_ > Scalar(0) ? detail::log2_of(first_energy_) : Scalar(0);
+    // The move level from which on the gyro threshold is at its cap (reach x the first floor):
+    // first (move / first)^gap >= reach first.
+    cap_log_ = s.gap > Scalar(0) ? first_log_ + detail::log2_of(s.reach) / s.gap
+                                 : std::numeric_limits<Scalar>::infinity();
     use_gyro_ = gyro_energy > Scalar(0);
+    glitch2_ = std::numeric_limits<Scalar>::infinity();
     update_thresholds();
   }
 
   // One sample: a = raw accelerometer minus the caller's reference, u = bias-corrected gyro rate,
   // dt = its interval (0 for the first sample after a gap), accel_unusable = the accelerometer
-  // reading says nothing (saturated): the sample counts as motion. Returns whether it is still.
-  bool update(const Vector3<Scalar>& a, const Vector3<Scalar>& u, Scalar dt, bool accel_unusable) {
+  // reading says nothing (saturated): the sample counts as motion. A usable reading whose squared
+  // distance from the moving mean (summed over the axes) exceeds the glitch limit is a glitch:
+  // nothing changes, the caller refuses the sample.
+  Stillness update(const Vector3<Scalar>& a, const Vector3<Scalar>& u, Scalar dt,
+                   bool accel_unusable) {
+    const Scalar d0 = a(0) - mean_(0), d1 = a(1) - mean_(1), d2 = a(2) - mean_(2);
+    const Scalar dev = d0 * d0 + d1 * d1 + d2 * d2;
+    if (dev > glitch2_ && !accel_unusable) return Stillness::kGlitch;
     const Scalar w = dt / (settings_.seconds + dt);
     const Scalar wa = accel_unusable ? Scalar(0) : w;
     const Scalar keep = Scalar(1) - wa;
-    Scalar acc = Scalar(0), dev = Scalar(0), energy = Scalar(0);
+    const Scalar d[3] = {d0, d1, d2};
+    Scalar acc = Scalar(0), energy = Scalar(0);
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
-      const Scalar d = a(i) - mean_(i);
-      mean_(i) += wa * d;
-      const Scalar d2 = d * d;
-      dev += d2;
-      const Scalar v = keep * (var_(i) + wa * (d2 < clip_var_ ? d2 : clip_var_));
+      mean_(i) += wa * d[i];
+      const Scalar d2i = d[i] * d[i];
+      const Scalar v = keep * (var_(i) + wa * (d2i < clip_var_ ? d2i : clip_var_));
       var_(i) = v;
       acc += v;
       energy += u(i) * u(i);
@@ -85,19 +144,13 @@ class StillnessDetector {
     energy_ += w * ((energy < clip_energy_ ? energy : clip_energy_) - energy_);
     sample_accel_ = accel_unusable ? Scalar(0) : dev;
     sample_energy_ = energy;
-    return !accel_unusable && acc <= acc_max_ && (!use_gyro_ || energy_ <= energy_max_);
+    const bool still = !accel_unusable && acc <= acc_max_ && (!use_gyro_ || energy_ <= energy_max_);
+    return still ? Stillness::kStill : Stillness::kMoving;
   }
 
-  // Whether a (relative) accelerometer reading lies further than sqrt(limit2) from the moving
-  // mean on any axis (a glitch, for the caller to refuse before update()).
-  bool far_from_mean(const Vector3<Scalar>& a, Scalar limit2) const {
-    bool far = false;
-    for (int i = 0; i < 3; ++i) {
-      const Scalar d = a(i) - mean_(i);
-      far = far || d * d > limit2;
-    }
-    return far;
-  }
+  // Readings further than sqrt(limit2) from the moving mean (squared, summed over the axes) are
+  // glitches from now on (the default: none is).
+  void set_glitch_limit(Scalar limit2) { glitch2_ = limit2; }
 
   // The unclipped cues of the latest sample: its squared deviation from the accelerometer's
   // moving mean (summed over the axes) and its gyro energy. Their means over a rest or a move
@@ -106,16 +159,18 @@ class StillnessDetector {
   Scalar sample_energy() const { return sample_energy_; }
 
   // A rest ended / a move ended: the mean cues over it. The floor follows the rests (a quarter
-  // of the way per rest, on a log scale), the move level the moves.
-  // (per move block: a tenth of the way, as a move spans many blocks).
+  // of the way per rest, on a log scale), the gyro's move level the moves (the accelerometer's
+  // threshold does not depend on the moves: see the top).
   void learn_rest(Scalar accel_mean, Scalar energy_mean) {
     rest_acc_ = blend(rest_acc_, accel_mean, Scalar(0.25));
     if (use_gyro_) rest_energy_ = blend(rest_energy_, energy_mean, Scalar(0.25));
     update_thresholds();
   }
-  void learn_motion(Scalar accel_mean, Scalar energy_mean) {
-    move_acc_ = envelope(move_acc_, accel_mean);
-    if (use_gyro_) move_energy_ = envelope(move_energy_, energy_mean);
+  void learn_motion(Scalar energy_mean) {
+    if (!use_gyro_ || !(energy_mean > Scalar(0))) return;
+    // The envelope on a log scale: up at once, down 2 % of the way.
+    const Scalar x = detail::log2_of(energy_mean);
+    move_log_ = x >= move_log_ ? x : move_log_ + Scalar(0.02) * (x - move_log_);
     update_thresholds();
   }
 
@@ -132,25 +187,25 @@ class StillnessDetector {
     return a * std::pow(b / a, f);
   }
 
-  // Rises to a higher level at once, decays towards a lower one by 2 % per call (a move spans
-  // many blocks, a hand-held rest mistaken for motion must not drag it down).
-  static Scalar envelope(Scalar level, Scalar x) {
-    if (!(x > Scalar(0))) return level;
-    return x >= level ? x : blend(level, x, Scalar(0.02));
-  }
-
-  Scalar threshold(Scalar floor, Scalar first, Scalar move, Scalar k) const {
-    const Scalar low = k * floor;
-    if (!(move > first) || !(first > Scalar(0))) return low;
-    Scalar t = first * std::pow(move / first, settings_.gap);
-    const Scalar most = settings_.reach * first;
-    t = t < most ? t : most;
+  // The gyro's: k x its floor, or if higher a fraction gap of the way from the first rest's
+  // level to the move level (log scale), at most reach x the first rest's level. The move level
+  // is an envelope (learn_motion): a move spans many blocks, and a hand-held rest mistaken for
+  // motion must not drag it down.
+  Scalar energy_threshold_now() const {
+    const Scalar low = settings_.gyro_k * rest_energy_;
+    if (!(move_log_ > first_log_) || !(first_energy_ > Scalar(0))) return low;
+    const Scalar most = settings_.reach * first_energy_;
+    Scalar t = most;
+    if (move_log_ < cap_log_) {
+      t = detail::exp2_of(first_log_ + settings_.gap * (move_log_ - first_log_));
+      t = t < most ? t : most;
+    }
     return t > low ? t : low;
   }
 
   void update_thresholds() {
     acc_max_ = settings_.accel_k * rest_acc_;
-    energy_max_ = threshold(rest_energy_, first_energy_, move_energy_, settings_.gyro_k);
+    energy_max_ = energy_threshold_now();
     clip_var_ = settings_.clip * acc_max_;
     clip_energy_ = settings_.clip * energy_max_;
   }
@@ -160,10 +215,11 @@ class StillnessDetector {
   Scalar energy_ = Scalar(0);
   Scalar sample_accel_ = Scalar(0), sample_energy_ = Scalar(0);
   Scalar rest_acc_ = Scalar(0), rest_energy_ = Scalar(0);
-  Scalar first_acc_ = Scalar(0), first_energy_ = Scalar(0);
-  Scalar move_acc_ = Scalar(0), move_energy_ = Scalar(0);
+  Scalar first_energy_ = Scalar(0);
+  Scalar move_log_ = Scalar(0), first_log_ = Scalar(0), cap_log_ = Scalar(0);  // log2 levels
   Scalar acc_max_ = Scalar(0), energy_max_ = Scalar(0);
   Scalar clip_var_ = Scalar(0), clip_energy_ = Scalar(0);
+  Scalar glitch2_ = std::numeric_limits<Scalar>::infinity();
   bool use_gyro_ = true;
 };
 

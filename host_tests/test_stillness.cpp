@@ -1,0 +1,147 @@
+// The stillness detector on its own: the float log2/exp2 its move level runs on, the gyro
+// threshold that follows the moves, and glitches refused without a trace. On every target: the
+// float arithmetic is the device's.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "imucal/sim/random.hpp"
+#include "imucal/stillness.hpp"
+
+namespace imucal {
+namespace {
+
+// One unit in the last place of a float of this magnitude.
+double ulp_of(double v) {
+  const float f = static_cast<float>(std::abs(v));
+  return static_cast<double>(std::nextafter(f, std::numeric_limits<float>::infinity()) - f);
+}
+
+TEST(StillnessMath, FloatLog2IsWithinTwoTenthsOfAMillionth) {
+  double worst = 0;
+  int n = 0;
+  // Log-spaced over the normal floats, plus the points where the mantissa range is split.
+  for (double e = -125.9; e < 127.9; e += 0.0137) {
+    for (double x : {std::exp2(e), 1.41421356 * std::exp2(std::floor(e)),
+                     1.41421357 * std::exp2(std::floor(e))}) {
+      const float xf = static_cast<float>(x);
+      if (!(xf >= std::numeric_limits<float>::min()) || std::isinf(xf)) continue;
+      const double exact = std::log2(static_cast<double>(xf));
+      const double got = static_cast<double>(detail::log2_of(xf));
+      const double err = std::abs(got - exact);
+      const double bound = 2e-7 + ulp_of(exact);  // the result's own rounding
+      EXPECT_LE(err, bound) << "x = " << xf;
+      worst = std::max(worst, err / bound);
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 50000);
+  std::printf("log2: %d values, worst error %.2f of the bound\n", n, worst);
+}
+
+TEST(StillnessMath, FloatExp2IsWithinTwoTenthsOfAMillionthRelative) {
+  double worst = 0;
+  int n = 0;
+  for (double y = -125.99; y < 126.99; y += 0.00731) {
+    const float yf = static_cast<float>(y);
+    const double exact = std::exp2(static_cast<double>(yf));
+    const double got = static_cast<double>(detail::exp2_of(yf));
+    const double rel = std::abs(got - exact) / exact;
+    EXPECT_LE(rel, 2e-7 + 1.2e-7) << "y = " << yf;  // and the result's own rounding (2^-23)
+    worst = std::max(worst, rel);
+    ++n;
+  }
+  EXPECT_GT(n, 30000);
+  std::printf("exp2: %d values, worst relative error %.3g\n", n, worst);
+  // Outside the normal range: the library's own.
+  EXPECT_EQ(detail::exp2_of(200.0f), std::numeric_limits<float>::infinity());
+  EXPECT_EQ(detail::exp2_of(-200.0f), 0.0f);
+  EXPECT_TRUE(std::isnan(detail::log2_of(-1.0f)));
+  EXPECT_EQ(detail::log2_of(0.0f), -std::numeric_limits<float>::infinity());
+}
+
+// The gyro threshold: k x the floor, or first (move / first)^gap if higher, at most reach x first.
+template <typename Scalar>
+double expected_threshold(const StillnessSettings<Scalar>& s, double first, double move) {
+  const double low = static_cast<double>(s.gyro_k) * first;
+  if (!(move > first)) return low;
+  const double most = static_cast<double>(s.reach) * first;
+  const double t = std::min(most, first * std::pow(move / first, static_cast<double>(s.gap)));
+  return std::max(low, t);
+}
+
+template <typename Scalar>
+void threshold_follows_the_moves() {
+  const StillnessSettings<Scalar> settings{};
+  const double first = 2.5e-3;  // rad^2/s^2: a gyro's energy at rest, raw units
+  StillnessDetector<Scalar> d;
+  d.start(settings, Vector3<Scalar>::Zero(), Vector3<Scalar>::Constant(Scalar(1e-4)),
+          static_cast<Scalar>(first));
+  EXPECT_NEAR(static_cast<double>(d.energy_threshold()), 6 * first, 1e-6 * first);
+  // Moves from far below the cap (the threshold between rest and move) to far above (the cap),
+  // rising at once and decaying 2 % of the way (log scale) per block.
+  double level = 0;
+  sim::Random rng(3);
+  for (int k = 0; k < 400; ++k) {
+    const double x = first * std::exp(rng.uniform(0, std::log(1e7)));
+    level = level == 0 || x >= level ? x : level * std::pow(x / level, 0.02);
+    d.learn_motion(static_cast<Scalar>(x));
+    const double want = expected_threshold(settings, first, level);
+    ASSERT_NEAR(static_cast<double>(d.energy_threshold()), want, 2e-5 * want) << "block " << k;
+  }
+  // A move that is no move (no energy) changes nothing.
+  const Scalar before = d.energy_threshold();
+  d.learn_motion(Scalar(0));
+  EXPECT_EQ(d.energy_threshold(), before);
+}
+
+TEST(StillnessDetector, GyroThresholdFollowsTheMovesFloat) { threshold_follows_the_moves<float>(); }
+TEST(StillnessDetector, GyroThresholdFollowsTheMovesDouble) {
+  threshold_follows_the_moves<double>();
+}
+
+// A glitch is refused before anything changes: the detector that saw it goes on exactly as one
+// that did not; a saturated reading is motion, never a glitch.
+template <typename Scalar>
+void glitch_leaves_no_trace() {
+  const StillnessSettings<Scalar> settings{};
+  StillnessDetector<Scalar> with, without;
+  const Vector3<Scalar> var = Vector3<Scalar>::Constant(Scalar(4));  // raw counts^2
+  for (StillnessDetector<Scalar>* d : {&with, &without}) {
+    d->start(settings, Vector3<Scalar>::Zero(), var, Scalar(0.01));
+    d->set_glitch_limit(Scalar(1e4) * Scalar(4));  // 100 sigma
+  }
+  sim::Random rng(5);
+  int still = 0, glitches = 0;
+  for (int k = 0; k < 500; ++k) {
+    const Vector3<Scalar> a(static_cast<Scalar>(2 * rng.normal()),
+                            static_cast<Scalar>(2 * rng.normal()),
+                            static_cast<Scalar>(2 * rng.normal()));
+    const Vector3<Scalar> u = Vector3<Scalar>::Constant(static_cast<Scalar>(0.05 * rng.normal()));
+    const Scalar dt = Scalar(0.01);
+    if (k % 50 == 25) {
+      const Vector3<Scalar> far =
+          a + Vector3<Scalar>(Scalar(0), Scalar(150) * Scalar(2), Scalar(0));
+      ASSERT_EQ(with.update(far, u, dt, false), Stillness::kGlitch);
+      ++glitches;
+      // The same reading flagged saturated is motion, not a glitch.
+      StillnessDetector<Scalar> copy = with;
+      EXPECT_EQ(copy.update(far, u, dt, true), Stillness::kMoving);
+    }
+    const Stillness s1 = with.update(a, u, dt, false);
+    const Stillness s2 = without.update(a, u, dt, false);
+    ASSERT_EQ(s1, s2);
+    ASSERT_EQ(with.sample_accel(), without.sample_accel());
+    ASSERT_EQ(with.sample_energy(), without.sample_energy());
+    still += s1 == Stillness::kStill;
+  }
+  EXPECT_EQ(glitches, 10);
+  EXPECT_GE(still, 490);  // white noise at the start's own level: still throughout
+}
+
+TEST(StillnessDetector, GlitchLeavesNoTraceFloat) { glitch_leaves_no_trace<float>(); }
+TEST(StillnessDetector, GlitchLeavesNoTraceDouble) { glitch_leaves_no_trace<double>(); }
+
+}  // namespace
+}  // namespace imucal
