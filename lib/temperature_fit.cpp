@@ -57,16 +57,16 @@ bool sse_increment(const NormalEquations<Scalar, N>& ne, const Eigen::Matrix<Sca
   }
   for (int c = 0; c < N; ++c)
     for (int r = 0; r < N; ++r) a(r, c) = ne.h(r, c) * scale(r) * scale(c);
-  // Plain vectors in and out (see NormalEquations::for_each_inverse_column: no malloc path).
+  // Plain vectors in and out, solved by ldlt_solve (normal_equations.hpp: no free() at -Os).
   Eigen::LDLT<Matrix> ldlt;
   ldlt.compute(a);
   if (ldlt.info() != Eigen::Success) return false;
   const Vector d = ldlt.vectorD();
   if (!all_finite(d) || !(d.minCoeff() > min_pivot_ratio<Scalar, N>() * d.maxCoeff())) return false;
   Vector rhs = scale.cwiseProduct(ne.gradient());
-  Vector hv = ldlt.solve(rhs);  // H^-1 v = -theta (scaled)
+  Vector hv = ldlt_solve(ldlt, rhs);  // H^-1 v = -theta (scaled)
   rhs = scale.cwiseProduct(j);
-  Vector hj = ldlt.solve(rhs);  // H^-1 j (scaled)
+  Vector hj = ldlt_solve(ldlt, rhs);  // H^-1 j (scaled)
   hv = scale.cwiseProduct(hv);
   hj = scale.cwiseProduct(hj);
   const Scalar r = e - j.dot(hv);

@@ -31,6 +31,16 @@ constexpr Scalar min_pivot_ratio() {
   return Scalar(100) * Scalar(N) * std::numeric_limits<Scalar>::epsilon();
 }
 
+// Eigen's LDL^T solve with every call inside it inlined. For more than 8 unknowns Eigen's
+// triangular solve declares a stack-or-heap buffer that a fixed-size vector never uses; its
+// release, a call to free() with a null pointer, is not inlined at -Os, which links free() into
+// the firmware. Flattened, the compiler sees the call can never happen. The arithmetic is
+// Eigen's own.
+template <class Ldlt, class Vec>
+[[gnu::flatten]] Vec ldlt_solve(const Ldlt& ldlt, const Vec& b) {
+  return ldlt.solve(b);
+}
+
 template <typename Scalar, int N>
 class NormalEquations {
  public:
@@ -99,7 +109,7 @@ class NormalEquations {
     const Status s = factor(lambda, scale, ldlt);
     if (s != Status::kOk) return s;
     Vector rhs = -(scale.cwiseProduct(v_));
-    Vector x = ldlt.solve(rhs);
+    Vector x = ldlt_solve(ldlt, rhs);
     x = scale.cwiseProduct(x);
     if (!all_finite(x)) return Status::kIllConditioned;
     delta = x;
@@ -194,7 +204,7 @@ class NormalEquations {
     for (int c = 0; c < N; ++c) {
       Vector unit = Vector::Zero();
       unit(c) = Scalar(1);
-      const Vector column = ldlt.solve(unit);
+      const Vector column = ldlt_solve(ldlt, unit);
       f(c, Vector(variance * scale(c) * scale.cwiseProduct(column)));
     }
     return Status::kOk;
