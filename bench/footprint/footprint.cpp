@@ -3,8 +3,19 @@
 // target. The build fails if it links any allocation symbol (cmake/CheckNoHeap.cmake), and prints
 // its sizes. Built a second time with IMUCAL_FOOTPRINT_BASELINE (same I/O, no imucal) so the
 // difference is imucal's own size.
+//
+// IMUCAL_FOOTPRINT_PARTS selects what a firmware would link (bench/footprint_parts.sh builds each):
+//   1  load and apply: a record read from the store, samples corrected;
+//   2  the accelerometer alone: the solver from pose means, the record saved and loaded, applied;
+//   3  2 + the streaming calibrator with the gyro (its solvers);
+//   4  3 + the magnetometer (collector, solve, alignment);
+//   5  4 + the temperature model (rest monitor, fit, corrector): everything, the default.
 #include <cstdint>
 #include <cstdio>
+
+#ifndef IMUCAL_FOOTPRINT_PARTS
+#define IMUCAL_FOOTPRINT_PARTS 5
+#endif
 
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 #include "imucal/imucal.hpp"
@@ -21,11 +32,17 @@ volatile float g_input[3 * 12] = {9.8f, 0.1f,  0.2f, -9.7f, 0.2f, 0.1f,  0.1f,  
 
 #ifndef IMUCAL_FOOTPRINT_BASELINE
 // A global, not a function-local static: that would need a thread-safe guard (__cxa_guard_*).
+imucal::SimNorFlash<2048, 1024, 64> flash;  // the firmware's flash driver (2 KB of bss here)
+#if IMUCAL_FOOTPRINT_PARTS >= 3
 imucal::Calibrator<float> calibrator;
-imucal::SimNorFlash<2048, 1024, 64> flash;         // the firmware's flash driver (2 KB of bss here)
-imucal::MagCalibrator<float> mag;                  // the magnetometer collector
+#endif
+#if IMUCAL_FOOTPRINT_PARTS >= 4
+imucal::MagCalibrator<float> mag;  // the magnetometer collector
+#endif
+#if IMUCAL_FOOTPRINT_PARTS >= 5
 imucal::TemperatureFit<float, 1> temperature_fit;  // bias against temperature (linear)
 imucal::RestMonitor<float> rest_monitor;           // rests in the field
+#endif
 #endif
 
 }  // namespace
@@ -35,6 +52,20 @@ int main() {
   float sum = 0.0f;
   for (int i = 0; i < 36; ++i) sum += g_input[i];
   std::printf("baseline %d\n", static_cast<int>(sum));
+  return 0;
+#elif IMUCAL_FOOTPRINT_PARTS == 1
+  // A firmware that only loads the stored calibration and applies it.
+  imucal::RecordStore store(flash);
+  imucal::CalibrationRecord loaded;
+  const imucal::Status s = store.load(loaded);
+  imucal::Corrector<float> corrector;
+  const imucal::Status s2 = corrector.set(loaded);
+  imucal::Vector3<float> a_cal, w_cal;
+  const float r[6] = {g_input[0], g_input[1], g_input[2], g_input[3], g_input[4], g_input[5]};
+  corrector.apply(imucal::Vector3<float>(r[0], r[1], r[2]),
+                  imucal::Vector3<float>(r[3], r[4], r[5]), a_cal, w_cal);
+  std::printf("apply: %s, %s, |a| %d\n", imucal::to_string(s), imucal::to_string(s2),
+              static_cast<int>(a_cal.norm()));
   return 0;
 #else
   imucal::PoseStore<float, 48> poses;
@@ -56,6 +87,10 @@ int main() {
   std::printf("%s / %s, |a| = %d mm/s^2, rms %d um/s^2\n", imucal::to_string(s),
               imucal::to_string(s2), static_cast<int>(a.norm() * 1000.0f),
               static_cast<int>(cal.residual_rms * 1e6f));
+#if IMUCAL_FOOTPRINT_PARTS == 2
+  imucal::Calibration<float> calibration;
+  calibration.accel = cal;
+#else
   // The streaming calibrator: a few seconds of samples (values from volatile memory), progress,
   // the whole solve and the calibration applied, so all of its code is linked and checked.
   std::uint32_t t_us = 0;
@@ -77,9 +112,11 @@ int main() {
   std::printf("calibrator: %u bytes, phase %d, %d poses, %s, |w| %d\n",
               static_cast<unsigned>(sizeof(calibrator)), static_cast<int>(progress.phase),
               progress.poses, imucal::to_string(s3), static_cast<int>(w.norm()));
+  const imucal::Calibration<float>& calibration = calibrator.calibration();
+#endif
   // Kept and applied: the record through the two-slot store, then the corrector.
   imucal::CalibrationRecord record;
-  imucal::Status s4 = imucal::make_record(calibrator.calibration(), 1u, 2u, record);
+  imucal::Status s4 = imucal::make_record(calibration, 1u, 2u, record);
   imucal::RecordStore store(flash);
   if (s4 == imucal::Status::kOk) s4 = store.save(record);
   imucal::CalibrationRecord loaded;
@@ -92,6 +129,7 @@ int main() {
                   imucal::Vector3<float>(r[3], r[4], r[5]), a_cal, w_cal);
   std::printf("record: %s, %s, parts %u, |a| %d\n", imucal::to_string(s4), imucal::to_string(s5),
               static_cast<unsigned>(corrector.parts()), static_cast<int>(a_cal.norm()));
+#if IMUCAL_FOOTPRINT_PARTS >= 4
   // The magnetometer: collector, solve and alignment, so all of its code is linked and checked.
   for (int k = 0; k < 600; ++k) {
     const float x = g_input[k % 36], y = g_input[(k + 7) % 36], z = g_input[(k + 13) % 36];
@@ -103,11 +141,14 @@ int main() {
   const imucal::Status s7 = mag.align(cal, mag_cal);
   std::printf("mag: %u bytes, %d samples, %s, %s\n", static_cast<unsigned>(sizeof(mag)), mag.size(),
               imucal::to_string(s6), imucal::to_string(s7));
+  corrector.set_mag(mag_cal);
+#endif
+#if IMUCAL_FOOTPRINT_PARTS >= 5
   // The temperature model: rests from the field monitor into the fit, applied by the corrector.
   imucal::RestMonitorSettings<float> rm;
   rm.accel_noise = rm.gyro_noise = 1.0f;
   rest_monitor.reset(rm);
-  const imucal::Status s8 = temperature_fit.reset(calibrator.calibration());
+  const imucal::Status s8 = temperature_fit.reset(calibration);
   for (int k = 0; k < 2000; ++k) {
     imucal::ImuSample<float> sample;
     sample.t_us = static_cast<std::uint32_t>(k) * 10000u;
@@ -120,7 +161,6 @@ int main() {
   }
   imucal::TemperatureModel<float> model;
   const imucal::Status s9 = temperature_fit.solve(model);
-  corrector.set_mag(mag_cal);
   corrector.set_temperature_model(model);
   const float temperature = g_input[5];
   corrector.set_temperature(temperature);
@@ -128,6 +168,7 @@ int main() {
               static_cast<unsigned>(sizeof(temperature_fit)),
               static_cast<unsigned>(sizeof(rest_monitor)), imucal::to_string(s8),
               imucal::to_string(s9), static_cast<unsigned>(corrector.parts()));
+#endif
   return imucal::succeeded(s) && imucal::succeeded(s2) ? 0 : 1;
 #endif
 }

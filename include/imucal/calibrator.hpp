@@ -196,7 +196,7 @@ struct Calibration {
 };
 
 // The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, one partial coarsening of
-// the segment store in the motion after its last rest) in about 32.2 KiB of float
+// the segment store in the motion after its last rest) in about 31.7 KiB of float
 // (bench/footprint).
 template <typename Scalar, int MaxPoses = 48, int MaxSegments = 630, int DelayBlocks = 8>
 class Calibrator {
