@@ -42,9 +42,10 @@ inline bool finite3(const Vector3<Scalar>& v) {
 // One Allan variance estimate at one averaging time, per axis.
 template <typename Scalar>
 struct AllanPoint {
-  Scalar tau = Scalar(0);                                    // averaging time (s)
-  std::uint32_t m = 0;                                       // cluster size (samples)
-  std::uint32_t count = 0;                                   // differences summed
+  Scalar tau = Scalar(0);    // averaging time (s)
+  std::uint32_t m = 0;       // cluster size (samples)
+  std::uint32_t count = 0;   // differences summed
+  bool overlapping = false;  // an overlapping estimate: neighbouring taus share its data
   Vector3<Scalar> avar = Vector3<Scalar>::Zero();            // Allan variance (unit^2)
   Vector3<Scalar> edf = Vector3<Scalar>::Zero();             // equivalent degrees of freedom
   Vector3<Scalar> adev_lo = Vector3<Scalar>::Zero();         // 68 % CI of the deviation (unit)
@@ -349,6 +350,7 @@ Status overlapping_allan(Get&& get, std::size_t n, Scalar tau0, int per_decade,
     AllanPoint<Scalar> p;
     p.m = m;
     p.tau = tau0 * static_cast<Scalar>(m);
+    p.overlapping = true;
     const Status s = overlapping_avar_at<Scalar>(get, n, m, p.avar, p.count);
     if (s != Status::kOk) return s;
     out[count++] = p;
@@ -391,8 +393,8 @@ Status overlapping_allan(const Scalar* data, std::size_t n, std::size_t stride, 
 }
 
 // One fitted noise coefficient: value, 1-sigma, and whether the data show it (in the best
-// non-negative subset with a variance coefficient larger than its sigma, i.e. the value's
-// relative sigma below 50 %).
+// non-negative subset with a variance coefficient above twice its sigma, i.e. the value's
+// relative sigma below 25 %).
 template <typename Scalar>
 struct NoiseTerm {
   Scalar value = Scalar(0);
@@ -438,8 +440,8 @@ Scalar basis(int j, Scalar tau) {
 // Weighted least squares of the four non-negative coefficients (Q^2, N^2, B^2, K^2) to the points
 // pts[0 .. n_points) of one axis (0, 1, 2). Weight of a point: edf / (2 AVAR^2) (the chi-square
 // variance of an Allan variance), AVAR from the data first and then twice from the fitted model,
-// divided by the number of points within a factor 2 of its tau (overlapping estimates at nearby
-// taus share their data; without this the sigmas would be too small). Non-negativity: every
+// divided, for overlapping estimates, by the number of them within a factor 2 of its tau either
+// way (they share their data; without this the sigmas would be too small). Non-negativity: every
 // subset of the four terms is solved and the best feasible one kept. Sigmas from the inverse
 // normal matrix, scaled up by chi2/dof when that exceeds 1. kInvalidArgument for a bad axis or
 // fewer than 2 points; kNonFiniteInput for a non-finite or non-positive tau, AVAR or edf.
@@ -480,10 +482,13 @@ Status fit_noise_terms(const AllanPoint<Scalar>* pts, int n_points, int axis,
       const Scalar m = model_at(x_prev, i);
       if (m > Scalar(0)) model = m;
     }
-    int near = 0;
-    for (int l = 0; l < n_points; ++l) {
-      const Scalar q = pts[l].tau / pts[i].tau;
-      if (q >= Scalar(0.7071067811865476) && q <= Scalar(1.4142135623730951)) ++near;
+    int near = 1;
+    if (pts[i].overlapping) {
+      near = 0;
+      for (int l = 0; l < n_points; ++l) {
+        const Scalar q = pts[l].tau / pts[i].tau;
+        if (pts[l].overlapping && q >= Scalar(0.5) && q <= Scalar(2)) ++near;
+      }
     }
     return pts[i].edf(axis) / (Scalar(2) * model * model * static_cast<Scalar>(near));
   };
@@ -546,7 +551,7 @@ Status fit_noise_terms(const AllanPoint<Scalar>* pts, int n_points, int axis,
     NoiseTerm<Scalar>& t = *term[j];
     t.value = std::sqrt(cj);
     t.sigma = cj > Scalar(0) ? sj / (Scalar(2) * t.value) : std::sqrt(sj);
-    t.significant = cj > sj;
+    t.significant = cj > Scalar(2) * sj;
   }
   // Classic read-outs.
   int best_n = -1;
