@@ -1811,7 +1811,7 @@ double yaml_value(const std::string& text, const std::string& key) {
 
 TEST(CliNoise, KalibrDensitiesMatchTheTruth) {
   const std::string csv = temp_path("still.csv"), json = temp_path("still.json"),
-                    yaml = temp_path("still_imu.yaml");
+                    yaml = temp_path("still_imu.yaml"), svg = temp_path("still.svg");
   const double ng = 2e-4, na = 1.5e-3, dt = 0.01;
   {
     sim::Random rng(5);
@@ -1830,7 +1830,7 @@ TEST(CliNoise, KalibrDensitiesMatchTheTruth) {
     }
   }
   testing::internal::CaptureStdout();
-  ASSERT_EQ(imucal_main({"noise", csv, "--json", json, "--kalibr", yaml}), 0);
+  ASSERT_EQ(imucal_main({"noise", csv, "--json", json, "--kalibr", yaml, "--svg", svg}), 0);
   const std::string out = testing::internal::GetCapturedStdout();
   EXPECT_NE(out.find("60000 samples over 600.0 s at 100.000 Hz"), std::string::npos) << out;
   EXPECT_NE(out.find("gyroscope (rad/s)"), std::string::npos) << out;
@@ -1866,7 +1866,17 @@ TEST(CliNoise, KalibrDensitiesMatchTheTruth) {
   EXPECT_GT(yaml_value(y, "gyroscope_random_walk"), 0);
   EXPECT_GT(yaml_value(y, "accelerometer_random_walk"), 0);
   EXPECT_NEAR(yaml_value(y, "update_rate"), 100.0, 1e-3);
-  for (const std::string& f : {csv, json, yaml}) std::remove(f.c_str());
+  // The plot: a whole SVG, both sensors, every coordinate finite.
+  std::ifstream sf(svg);
+  std::stringstream ss;
+  ss << sf.rdbuf();
+  const std::string page = ss.str();
+  EXPECT_EQ(page.rfind("<svg", 0), 0u);
+  EXPECT_NE(page.find("</svg>"), std::string::npos);
+  EXPECT_NE(page.find("accelerometer: Allan deviation"), std::string::npos);
+  EXPECT_EQ(page.find("nan"), std::string::npos);
+  EXPECT_EQ(page.find("inf"), std::string::npos);
+  for (const std::string& f : {csv, json, yaml, svg}) std::remove(f.c_str());
 }
 
 TEST(CliNoise, MalformedInputSaysWhy) {

@@ -100,6 +100,8 @@ are reported as counts unless --gyro-lsb-per-dps / --accel-lsb-per-g give the sc
   --json FILE                     the Allan deviation (68 % intervals, edf) and the fitted terms
   --kalibr FILE                   Kalibr's imu.yaml noise keys (SI units; per sensor the largest
                                   axis; a random walk not seen is given as the data's upper bound)
+  --svg FILE                      a log-log plot: the deviation with its intervals, the fitted
+                                  terms' asymptotes and the model
 
 The summary lists every rest found (each a pose), explains its counts, and, when the
 calibration is refused or weak, says why and what to do next.

@@ -202,6 +202,132 @@ std::string kalibr_yaml(const SensorNoise* gyro, const SensorNoise* acc, double 
   return y;
 }
 
+// --- The SVG page: one log-log panel per sensor -------------------------------------------------
+
+constexpr const char* kAxisColour[3] = {"#d62728", "#2ca02c", "#1f77b4"};
+
+std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, f, a, b, c, d);
+  return buf;
+}
+
+// Log-log panel at (x0, y0) of size w x h: the Allan deviation of each axis (points, 68 %
+// bars), the fitted terms' asymptotes (dashed) and the fitted model (thin line).
+std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, double h) {
+  double t_lo = s.pts[0].tau, t_hi = s.pts[s.n_pts - 1].tau, a_lo = 1e300, a_hi = 0;
+  for (int i = 0; i < s.n_pts; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      if (s.pts[i].adev_lo(a) > 0) a_lo = std::min(a_lo, s.pts[i].adev_lo(a));
+      a_hi = std::max(a_hi, std::min(s.pts[i].adev_hi(a), 10 * std::sqrt(s.pts[i].avar(a))));
+    }
+  }
+  const double lx0 = std::floor(std::log10(t_lo)), lx1 = std::ceil(std::log10(t_hi));
+  const double ly0 = std::floor(std::log10(a_lo)), ly1 = std::ceil(std::log10(a_hi));
+  auto X = [&](double t) { return x0 + (std::log10(t) - lx0) / (lx1 - lx0) * w; };
+  auto Y = [&](double v) { return y0 + h - (std::log10(v) - ly0) / (ly1 - ly0) * h; };
+  auto inside = [&](double t, double v) {
+    return std::isfinite(t) && std::isfinite(v) && v > 0 && std::log10(v) >= ly0 &&
+           std::log10(v) <= ly1;
+  };
+  std::string o;
+  o += fmt("<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", x0,
+           y0, w, h);
+  for (double e = lx0; e <= lx1; e += 1) {
+    const double x = X(std::pow(10.0, e));
+    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x, y0, x, y0 + h);
+    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>1e%g</text>\n", x,
+             y0 + h + 14, e);
+  }
+  for (double e = ly0; e <= ly1; e += 1) {
+    const double y = Y(std::pow(10.0, e));
+    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x0, y, x0 + w, y);
+    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>1e%g</text>\n", x0 - 4,
+             y + 4, e);
+  }
+  o += "<text x='" + fmt("%.1f", x0 + w / 2) + "' y='" + fmt("%.1f", y0 + h + 30) +
+       "' font-size='12' text-anchor='middle'>tau [s]</text>\n";
+  o += "<text x='" + fmt("%.1f", x0) + "' y='" + fmt("%.1f", y0 - 8) + "' font-size='14'>" +
+       s.name + ": Allan deviation [" + s.unit +
+       "], 68 % intervals; dashed: the fitted terms' asymptotes (Q, N, B, K)</text>\n";
+  const int steps = 60;
+  for (int a = 0; a < 3; ++a) {
+    const NoiseTerms<double>& t = s.terms[a];
+    // Asymptotes: sqrt(3) Q / tau, N / sqrt(tau), 0.664 B, K sqrt(tau / 3).
+    const double q = t.q.value, n = t.n.value, b = t.b.value, k = t.k.value;
+    for (int term = 0; term < 4; ++term) {
+      const NoiseTerm<double>& tt = term == 0 ? t.q : term == 1 ? t.n : term == 2 ? t.b : t.k;
+      const double c = tt.value;
+      if (!(c > 0) || !tt.significant) continue;  // the asymptotes of the terms the data show
+      std::string path;
+      for (int i = 0; i <= steps; ++i) {
+        const double tau = std::pow(10.0, lx0 + (lx1 - lx0) * i / steps);
+        const double v = term == 0   ? std::sqrt(3.0) * c / tau
+                         : term == 1 ? c / std::sqrt(tau)
+                         : term == 2 ? 0.6642824702679265 * c
+                                     : c * std::sqrt(tau / 3);
+        if (!inside(tau, v)) continue;
+        path += (path.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+      }
+      if (!path.empty())
+        o += "<path d='" + path + "' fill='none' stroke='" + kAxisColour[a] +
+             "' stroke-width='1' stroke-dasharray='5,4' opacity='0.7'/>\n";
+    }
+    std::string model;
+    for (int i = 0; i <= steps; ++i) {
+      const double tau = std::pow(10.0, lx0 + (lx1 - lx0) * i / steps);
+      const double v = std::sqrt(3 * q * q / (tau * tau) + n * n / tau +
+                                 0.4412712003053032 * b * b + k * k * tau / 3);
+      if (!inside(tau, v)) continue;
+      model += (model.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+    }
+    if (!model.empty())
+      o += "<path d='" + model + "' fill='none' stroke='" + kAxisColour[a] +
+           "' stroke-width='1' opacity='0.5'/>\n";
+    for (int i = 0; i < s.n_pts; ++i) {
+      const AllanPoint<double>& p = s.pts[i];
+      const double v = std::sqrt(p.avar(a));
+      if (!inside(p.tau, v)) continue;
+      const double lo = std::max(p.adev_lo(a), std::pow(10.0, ly0));
+      const double hi = std::min(p.adev_hi(a), std::pow(10.0, ly1));
+      o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' ", X(p.tau), Y(lo), X(p.tau), Y(hi)) +
+           "stroke='" + kAxisColour[a] + "'/>\n";
+      o += fmt("<circle cx='%.1f' cy='%.1f' r='2.2' ", X(p.tau), Y(v)) + "fill='" + kAxisColour[a] +
+           "'/>\n";
+    }
+    const char* names = "xyz";
+    auto shown = [](const NoiseTerm<double>& x) {
+      return x.significant ? fmt("%.3e", x.value) : std::string("ns");
+    };
+    o += fmt("<text x='%.1f' y='%.1f' font-size='12' ", x0 + w - 400, y0 + 18 + 16 * a) + "fill='" +
+         kAxisColour[a] + "'>" + names[a] + ": N " + shown(t.n) + ", K " + shown(t.k) + ", B " +
+         shown(t.b) + ", Q " + shown(t.q) + " (ns: not significant)</text>\n";
+  }
+  return o;
+}
+
+std::string noise_svg(const SensorNoise* sensors, const bool* present, const std::string& file) {
+  const double w = 1000, panel_h = 420;
+  int panels = 0;
+  for (int s = 0; s < 2; ++s) panels += present[s] ? 1 : 0;
+  const double height = 60 + panels * (panel_h + 80);
+  std::string o =
+      fmt("<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' "
+          "font-family='sans-serif'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
+          w + 120, height);
+  std::string title = "imucal noise: " + file;
+  std::string escaped;
+  for (char c : title) escaped += c == '<' ? "&lt;" : c == '&' ? "&amp;" : std::string(1, c);
+  o += "<text x='20' y='28' font-size='16'>" + escaped + "</text>\n";
+  double y = 70;
+  for (int s = 0; s < 2; ++s) {
+    if (!present[s]) continue;
+    o += svg_panel(sensors[s], 90, y, w, panel_h);
+    y += panel_h + 80;
+  }
+  return o + "</svg>\n";
+}
+
 void print_diagnostics(const Diagnostics& diag) {
   for (const Diagnostic& d : diag.kept()) std::fprintf(stderr, "imucal: %s\n", d.text().c_str());
   if (diag.count() > diag.kept().size())
@@ -332,7 +458,7 @@ int noise_command(const std::vector<std::string>& args) {
     kalibr_numbers(sn);
   }
 
-  const bool stdout_taken = o.json_path == "-" || o.kalibr_path == "-";
+  const bool stdout_taken = o.json_path == "-" || o.kalibr_path == "-" || o.svg_path == "-";
   std::FILE* out = stdout_taken ? stderr : stdout;
   std::fprintf(out,
                "imucal noise: %s\n  %ld samples over %.1f s at %.3f Hz, taken as one still "
@@ -370,6 +496,8 @@ int noise_command(const std::vector<std::string>& args) {
                                                          o.files[0], n, duration)) &&
               written;
   }
+  if (!o.svg_path.empty())
+    written = write_text_file(o.svg_path, noise_svg(sensors, present, o.files[0])) && written;
   return written ? 0 : 2;
 }
 
