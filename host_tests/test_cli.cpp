@@ -22,6 +22,7 @@
 #include "imucal/record.hpp"
 #include "imucal/sim/mag_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
+#include "imucal/sim/random.hpp"
 #include "input.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"
@@ -1796,6 +1797,118 @@ TEST(CliMpu9150, BothBoardsAgreeWithThePublishedCalibration) {
     EXPECT_GE(r.json["poses"].size(), 20u) << b.file;
   }
   std::remove(json.c_str());
+}
+
+// `imucal noise`: a still recording with known white noise (gyro 2e-4 rad/s/sqrt(Hz), accel
+// 1.5e-3 m/s^2/sqrt(Hz) on every axis, 10 minutes at 100 Hz, on a gravity and bias offset).
+// Per axis the fitted N is within 3 of its sigmas of the truth; Kalibr's densities (the largest
+// axis) within 3 sigma too, the random walk (none simulated) an upper bound, the rate 100 Hz.
+double yaml_value(const std::string& text, const std::string& key) {
+  const std::size_t at = text.find("\n" + key + ": ");
+  if (at == std::string::npos) return kNaN;
+  return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
+}
+
+TEST(CliNoise, KalibrDensitiesMatchTheTruth) {
+  const std::string csv = temp_path("still.csv"), json = temp_path("still.json"),
+                    yaml = temp_path("still_imu.yaml"), svg = temp_path("still.svg");
+  const double ng = 2e-4, na = 1.5e-3, dt = 0.01;
+  {
+    sim::Random rng(5);
+    std::ofstream f(csv);
+    f << "t,ax,ay,az,gx,gy,gz\n";
+    char line[256];
+    for (int i = 0; i < 60000; ++i) {
+      double a[3], g[3];
+      for (int k = 0; k < 3; ++k) {
+        a[k] = (k == 2 ? 9.81 : 0.05) + na / std::sqrt(dt) * rng.normal();
+        g[k] = 0.01 + ng / std::sqrt(dt) * rng.normal();
+      }
+      std::snprintf(line, sizeof line, "%.2f,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", i * dt, a[0], a[1],
+                    a[2], g[0], g[1], g[2]);
+      f << line;
+    }
+  }
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(imucal_main({"noise", csv, "--json", json, "--kalibr", yaml, "--svg", svg}), 0);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("60000 samples over 600.0 s at 100.000 Hz"), std::string::npos) << out;
+  EXPECT_NE(out.find("gyroscope (rad/s)"), std::string::npos) << out;
+  std::ifstream jf(json);
+  const Json j = Json::parse(jf);
+  const double truth[2] = {ng, na};
+  const char* keys[2] = {"gyroscope", "accelerometer"};
+  for (int s = 0; s < 2; ++s) {
+    for (std::size_t a = 0; a < 3; ++a) {
+      const Json& n = j[keys[s]]["axes"][a]["white_noise_N"];
+      const double v = n["value"].get<double>(), sigma = n["sigma"].get<double>();
+      std::printf("  %s %zu: N %.5g +- %.2g (truth %.5g, %.2f sigma)\n", keys[s], a, v, sigma,
+                  truth[s], std::fabs(v - truth[s]) / sigma);
+      EXPECT_TRUE(n["significant"].get<bool>());
+      EXPECT_LE(std::fabs(v - truth[s]), 3 * sigma) << keys[s] << " " << a;
+      EXPECT_FALSE(j[keys[s]]["axes"][a]["random_walk_K"]["significant"].get<bool>());
+    }
+  }
+  std::ifstream yf(yaml);
+  std::stringstream ys;
+  ys << yf.rdbuf();
+  const std::string y = "\n" + ys.str();
+  const double gd = yaml_value(y, "gyroscope_noise_density");
+  const double ad = yaml_value(y, "accelerometer_noise_density");
+  const double gs = j["gyroscope"]["kalibr"]["noise_density_sigma"].get<double>();
+  const double as = j["accelerometer"]["kalibr"]["noise_density_sigma"].get<double>();
+  std::printf("  kalibr: gyro %.5g +- %.2g, accel %.5g +- %.2g\n", gd, gs, ad, as);
+  EXPECT_LE(std::fabs(gd - ng), 3 * gs);
+  EXPECT_LE(std::fabs(ad - na), 3 * as);
+  EXPECT_NEAR(gd / j["gyroscope"]["kalibr"]["noise_density"].get<double>(), 1.0, 1e-6);
+  // No random walk in the data: the bound the data allow, positive, and said so.
+  EXPECT_TRUE(j["gyroscope"]["kalibr"]["random_walk_is_upper_bound"].get<bool>());
+  EXPECT_GT(yaml_value(y, "gyroscope_random_walk"), 0);
+  EXPECT_GT(yaml_value(y, "accelerometer_random_walk"), 0);
+  EXPECT_NEAR(yaml_value(y, "update_rate"), 100.0, 1e-3);
+  // The plot: a whole SVG, both sensors, every coordinate finite.
+  std::ifstream sf(svg);
+  std::stringstream ss;
+  ss << sf.rdbuf();
+  const std::string page = ss.str();
+  EXPECT_EQ(page.rfind("<svg", 0), 0u);
+  EXPECT_NE(page.find("</svg>"), std::string::npos);
+  EXPECT_NE(page.find("accelerometer: Allan deviation"), std::string::npos);
+  EXPECT_EQ(page.find("nan"), std::string::npos);
+  EXPECT_EQ(page.find("inf"), std::string::npos);
+  for (const std::string& f : {csv, json, yaml, svg}) std::remove(f.c_str());
+}
+
+TEST(CliNoise, MalformedInputSaysWhy) {
+  const std::string empty = temp_path("noise_empty.csv"), few = temp_path("noise_few.csv"),
+                    no_t = temp_path("noise_no_t.csv"), counts = temp_path("noise_counts.csv");
+  write_file(empty, "");
+  std::string text = "t,ax,ay,az,gx,gy,gz\n";
+  for (int i = 0; i < 10; ++i) text += std::to_string(i * 0.01) + ",0,0,9.8,1,2,3\n";
+  write_file(few, text);
+  write_file(no_t, "ax,ay,az,gx,gy,gz\n0,0,9.8,1,2,3\n0,0,9.8,1,2,3\n");
+  text = "t,ax,ay,az,gx,gy,gz\n";
+  for (int i = 0; i < 100; ++i)
+    text += std::to_string(i * 0.01) + ",0,0,9.8," + std::to_string(i % 3) + ",2,3\n";
+  write_file(counts, text);
+  const std::pair<std::vector<std::string>, const char*> cases[] = {
+      {{"noise", empty}, "empty: expected a header line"},
+      {{"noise", few}, "too few for an Allan deviation"},
+      {{"noise", no_t}, "no time column"},
+      {{"noise", counts, "--gyro-unit", "counts", "--kalibr", temp_path("k.yaml")},
+       "--kalibr needs SI units"},
+      {{"noise"}, "no input"},
+      {{"noise", counts, "--bogus"}, "unknown option"},
+  };
+  for (const auto& c : cases) {
+    testing::internal::CaptureStderr();
+    testing::internal::CaptureStdout();
+    EXPECT_EQ(imucal_main(c.first), 2) << c.second;
+    testing::internal::GetCapturedStdout();
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find(c.second), std::string::npos) << err;
+  }
+  for (const std::string& f : {empty, few, no_t, counts}) std::remove(f.c_str());
 }
 
 }  // namespace

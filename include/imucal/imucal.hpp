@@ -4,6 +4,7 @@
 
 #include "imucal/accel_calibration.hpp"
 #include "imucal/accel_model.hpp"
+#include "imucal/allan.hpp"
 #include "imucal/calibrator.hpp"
 #include "imucal/corrector.hpp"
 #include "imucal/gyro_calibration.hpp"

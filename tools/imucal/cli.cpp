@@ -20,6 +20,9 @@ biases' temperature dependence.
                   [--initial-rest S] [--units counts|si]   a recording with known truth
   imucal record FILE                         print a calibration record (calibrate --record);
                                              exit 1 if it is not valid (what, at which byte)
+  imucal noise [options] FILE                the noise of a STILL recording (the whole file):
+                                             Allan deviation, white noise N, random walk K,
+                                             bias instability B, quantisation Q per axis
 
 Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, gz (optional
 temp, mx, my, mz; any order). The optional fields may be empty or NaN where the sensor gave no
@@ -92,6 +95,14 @@ Outputs:
   --svg FILE, -o FILE             the SVG report page (report needs it; calibrate may write it)
   --quiet                         no progress display on the terminal
 
+Noise (imucal noise; the input, unit and --columns/--rate options as for calibrate; counts
+are reported as counts unless --gyro-lsb-per-dps / --accel-lsb-per-g give the scale):
+  --json FILE                     the Allan deviation (68 % intervals, edf) and the fitted terms
+  --kalibr FILE                   Kalibr's imu.yaml noise keys (SI units; per sensor the largest
+                                  axis; a random walk not seen is given as the data's upper bound)
+  --svg FILE                      a log-log plot: the deviation with its intervals, the fitted
+                                  terms' asymptotes and the model
+
 The summary lists every rest found (each a pose), explains its counts, and, when the
 calibration is refused or weak, says why and what to do next.
 The header and the record are written only for a usable calibration, with the parts present.
@@ -112,7 +123,9 @@ int imucal_main(const std::vector<std::string>& args) {
   if (args[0] == "report") return calibrate_command(rest, true);
   if (args[0] == "simulate") return simulate_command(rest);
   if (args[0] == "record") return record_command(rest);
-  std::fprintf(stderr, "imucal: unknown command '%s' (calibrate, report, simulate, record, help)\n",
+  if (args[0] == "noise") return noise_command(rest);
+  std::fprintf(stderr,
+               "imucal: unknown command '%s' (calibrate, report, simulate, record, noise, help)\n",
                args[0].c_str());
   return 2;
 }

@@ -3,6 +3,7 @@
 //   imucal report -o PAGE.svg [options] FILE...   the same, plus the picture page
 //   imucal simulate -o FILE [--truth FILE] [--seed N] ...   a recording with known truth
 //   imucal record FILE   a device calibration record (calibrate --record), decoded and printed
+//   imucal noise [options] FILE   the noise terms of a still recording (Allan deviation)
 // Exit codes: 0 a usable calibration (of the sensors the input holds) or a command done; 1 the
 // recording did not give a usable calibration, or the record is not valid; 2 a usage error or an
 // unreadable input.
@@ -26,5 +27,6 @@ bool apply_file_settings(const std::vector<FileSetting>& settings, Options& opti
 int calibrate_command(const std::vector<std::string>& args, bool report);
 int simulate_command(const std::vector<std::string>& args);
 int record_command(const std::vector<std::string>& args);
+int noise_command(const std::vector<std::string>& args);
 
 }  // namespace imucal::cli

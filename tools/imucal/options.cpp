@@ -55,6 +55,7 @@ constexpr Key kKeys[] = {
     {"output", false, Where::kCommandLineOnly},
     {"svg", false, Where::kCommandLineOnly},
     {"truth", false, Where::kCommandLineOnly},
+    {"kalibr", false, Where::kCommandLineOnly},
 };
 
 const Key* find_key(std::string_view name) {
@@ -220,6 +221,8 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     o.svg_path = value;
   } else if (key == "truth") {
     o.truth_path = value;
+  } else if (key == "kalibr") {
+    o.kalibr_path = value;
   }
   return true;
 }

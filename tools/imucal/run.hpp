@@ -59,6 +59,7 @@ struct Options {
   bool use_double = false;  // the double reference instead of float (device)
   bool quiet = false;       // no progress display
   std::string json_path, header_path, svg_path, truth_path, record_path;
+  std::string kalibr_path;                     // `imucal noise --kalibr`: Kalibr's imu.yaml
   std::uint32_t device_id = 0, sensor_id = 0;  // for the record
   std::vector<std::string> command_line_keys;  // the settings given on the command line
   std::vector<std::string> from_files;         // "key=value (file:line)" read from the input
