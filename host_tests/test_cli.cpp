@@ -1,12 +1,18 @@
 // The `imucal` tool (host only): its readers on well-formed and malformed input, its options,
 // the round trip simulate -> calibrate against the truth, the C header compiled and applied, and
 // the xsens recording through the command (float and double).
+#include <dirent.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -1909,6 +1915,81 @@ TEST(CliNoise, MalformedInputSaysWhy) {
     EXPECT_NE(err.find(c.second), std::string::npos) << err;
   }
   for (const std::string& f : {empty, few, no_t, counts}) std::remove(f.c_str());
+}
+
+// An output is replaced whole or not at all: a write that fails (a full device, a file-size limit,
+// a directory) exits 2 with the reason and leaves the previous file as it was, with no temporary
+// file left beside it; a write that succeeds keeps the file's permissions.
+TEST(CliOutputs, AFailedWriteKeepsThePreviousFileAndSaysWhy) {
+  const std::string csv = temp_path("outputs.csv");
+  ASSERT_EQ(simulate_command({"--seed", "5", "-o", csv}), 0);
+  const std::string json = temp_path("outputs.json");
+  const std::string previous = "{\"previous\": true}\n";
+  {
+    std::ofstream f(json, std::ios::binary);
+    f << previous;
+  }
+  ASSERT_EQ(::chmod(json.c_str(), 0640), 0);
+  auto content = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  auto leftovers = [&]() {  // temporary files beside the output
+    int n = 0;
+    const std::string dir = testing::TempDir();
+    if (DIR* d = ::opendir(dir.c_str())) {
+      while (const dirent* e = ::readdir(d))
+        n += std::string(e->d_name).rfind("imucal_cli_outputs.json.", 0) == 0;
+      ::closedir(d);
+    }
+    return n;
+  };
+
+  // Past a file-size limit the write fails (EFBIG, SIGXFSZ ignored as the command's main does).
+  rlimit old_limit{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  void (*old_handler)(int) = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = old_limit;
+  small.rlim_cur = 256;  // bytes: the JSON is kilobytes
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  testing::internal::CaptureStderr();
+  const int limited = calibrate_command({csv, "--json", json, "--quiet"}, false);
+  const std::string why = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_EQ(limited, 2);
+  EXPECT_NE(why.find("cannot write " + json + ": " + std::strerror(EFBIG)), std::string::npos)
+      << why;
+  EXPECT_EQ(content(json), previous);
+  EXPECT_EQ(leftovers(), 0);
+
+  // A directory is refused, and stays a directory.
+  const std::string dir = testing::TempDir();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(calibrate_command({csv, "--json", dir, "--quiet"}, false), 2);
+  EXPECT_NE(testing::internal::GetCapturedStderr().find(std::strerror(EISDIR)), std::string::npos);
+  struct stat st {};
+  ASSERT_EQ(::stat(dir.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISDIR(st.st_mode));
+
+  // A full device: the reason, and the device is still a device.
+  if (::stat("/dev/full", &st) == 0 && S_ISCHR(st.st_mode)) {
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(calibrate_command({csv, "--json", "/dev/full", "--quiet"}, false), 2);
+    const std::string full = testing::internal::GetCapturedStderr();
+    EXPECT_NE(full.find(std::strerror(ENOSPC)), std::string::npos) << full;
+    ASSERT_EQ(::stat("/dev/full", &st), 0);
+    EXPECT_TRUE(S_ISCHR(st.st_mode));
+  }
+
+  // Written: the whole JSON replaces the file, which keeps its permissions.
+  EXPECT_EQ(calibrate_command({csv, "--json", json, "--quiet"}, false), 0);
+  EXPECT_FALSE(read_json(json).is_discarded());
+  ASSERT_EQ(::stat(json.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0640u);
+  EXPECT_EQ(leftovers(), 0);
 }
 
 }  // namespace

@@ -2,6 +2,10 @@
 // (a stored calibration record, decoded and printed).
 #include "outputs.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -344,20 +348,61 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                run.usable ? "usable" : "NOT usable (see the statuses above)");
 }
 
+namespace {
+
+bool write_failed(const std::string& path, int error) {
+  std::fprintf(stderr, "imucal: cannot write %s: %s\n", path.c_str(), std::strerror(error));
+  return false;
+}
+
+// Everything of text to fd; the errno of the failure, 0 when all went out.
+int write_all(int fd, const std::string& text) {
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  return 0;
+}
+
+}  // namespace
+
 bool write_text_file(const std::string& path, const std::string& text) {
   if (path == "-") {
-    std::fwrite(text.data(), 1, text.size(), stdout);
+    const bool ok = std::fwrite(text.data(), 1, text.size(), stdout) == text.size();
+    if (!ok || std::fflush(stdout) != 0) return write_failed("stdout", errno);
     return true;
   }
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (f == nullptr) {
-    std::fprintf(stderr, "imucal: cannot write %s: %s\n", path.c_str(), std::strerror(errno));
-    return false;
+  struct stat st {};
+  const bool exists = ::stat(path.c_str(), &st) == 0;
+  if (exists && S_ISDIR(st.st_mode)) return write_failed(path, EISDIR);
+  if (exists && !S_ISREG(st.st_mode)) {
+    // A device or a pipe (/dev/stdout, a FIFO): written in place, it cannot be replaced.
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return write_failed(path, errno);
+    const int error = write_all(fd, text);
+    if (::close(fd) != 0 && error == 0) return write_failed(path, errno);
+    return error == 0 || write_failed(path, error);
   }
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  if (std::fclose(f) != 0 || !ok) {
-    std::fprintf(stderr, "imucal: cannot write %s\n", path.c_str());
-    return false;
+  // A file: written beside it under a temporary name, flushed to the disk and renamed over it,
+  // so a failed or interrupted write leaves the previous file as it was (or no file).
+  std::string tmp = path + ".XXXXXX";
+  const int fd = ::mkstemp(&tmp[0]);
+  if (fd < 0) return write_failed(path, errno);
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  int error = ::fchmod(fd, exists ? (st.st_mode & 07777) : (0666 & ~mask)) == 0 ? 0 : errno;
+  if (error == 0) error = write_all(fd, text);
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  if (error == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) error = errno;
+  if (error != 0) {
+    ::unlink(tmp.c_str());
+    return write_failed(path, error);
   }
   return true;
 }

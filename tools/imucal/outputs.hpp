@@ -14,7 +14,9 @@ bool write_json(const Run& run, const Options& options, const std::string& path)
 bool write_header(const Run& run, const Options& options, const std::string& path);
 // Prints each parameter's error in sigmas against the truth file `imucal simulate` wrote.
 bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE* out);
-// "-" is stdout. False (reported on stderr) if it cannot be written.
+// "-" is stdout. A file is replaced whole or not at all (written under a temporary name beside
+// it, then renamed); a device or a pipe is written in place; a directory is refused. False
+// (the reason on stderr) if it cannot be written.
 bool write_text_file(const std::string& path, const std::string& text);
 
 // The model, said once for the summary, the JSON and the header.
