@@ -15,22 +15,12 @@
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"
+#include "imucal/compensated_sum.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {
 
 namespace allan_detail {
-
-// Kahan-Babuska (Neumaier) addition: hi + lo holds the sum to about twice Scalar's precision.
-template <typename Scalar>
-inline void add2(Scalar& hi, Scalar& lo, Scalar x) {
-  const Scalar s = hi + x;
-  const Scalar bp = s - hi;
-  const Scalar err = (hi - (s - bp)) + (x - bp);
-  const Scalar l = lo + err;
-  hi = s + l;
-  lo = l - (hi - s);
-}
 
 template <typename Scalar>
 inline bool finite3(const Vector3<Scalar>& v) {
@@ -151,7 +141,7 @@ Scalar nonoverlapping_edf(std::uint32_t count, AllanNoise noise) {
 // both). Cluster means are built pairwise from the level below (pairwise summation, so float
 // keeps the noise's precision over long clusters), on samples re-centred on the first one (raw
 // counts of ~33000 keep their noise digits), and each level's sum of squared differences is
-// compensated (Neumaier). Cost: two levels updated per sample on average.
+// compensated (compensated_sum.hpp). Cost: two levels updated per sample on average.
 template <typename Scalar, int Levels>
 class AllanAccumulator {
   static_assert(Levels >= 1 && Levels <= 31, "1..31 octaves");
@@ -180,7 +170,7 @@ class AllanAccumulator {
       Level& L = level_[k];
       if (L.have_prev) {
         const Vector3<Scalar> d = mean - L.prev;
-        for (int a = 0; a < 3; ++a) allan_detail::add2(L.sum_sq[a], L.sum_lo[a], d(a) * d(a));
+        for (int a = 0; a < 3; ++a) compensated_add(L.sum_sq[a], L.sum_lo[a], d(a) * d(a));
         ++L.count;
       }
       L.prev = mean;
@@ -281,7 +271,6 @@ class AllanAccumulator {
 template <typename Scalar, typename Get>
 Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Scalar>& avar,
                            std::uint32_t& count) {
-  using allan_detail::add2;
   if (m == 0) return Status::kInvalidArgument;
   const std::size_t mm = m;
   if (n < 2 * mm) return Status::kTooFewSamples;
@@ -293,9 +282,9 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
     if (!allan_detail::finite3(v)) return Status::kNonFiniteInput;
     for (int a = 0; a < 3; ++a) {
       if (i < mm) {
-        add2(s1[a], l1[a], v(a));
+        compensated_add(s1[a], l1[a], v(a));
       } else {
-        add2(s2[a], l2[a], v(a));
+        compensated_add(s2[a], l2[a], v(a));
       }
     }
   }
@@ -304,16 +293,16 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
   for (std::size_t j = 0;; ++j) {
     for (int a = 0; a < 3; ++a) {
       const Scalar d = ((s2[a] - s1[a]) + (l2[a] - l1[a])) * inv_m;
-      add2(sq[a], lq[a], d * d);
+      compensated_add(sq[a], lq[a], d * d);
     }
     if (j == last) break;
     const Vector3<Scalar> out1 = get(j) - ref, mid = get(j + mm) - ref, in2 = get(j + 2 * mm) - ref;
     if (!allan_detail::finite3(in2)) return Status::kNonFiniteInput;
     for (int a = 0; a < 3; ++a) {
-      add2(s1[a], l1[a], mid(a));
-      add2(s1[a], l1[a], -out1(a));
-      add2(s2[a], l2[a], in2(a));
-      add2(s2[a], l2[a], -mid(a));
+      compensated_add(s1[a], l1[a], mid(a));
+      compensated_add(s1[a], l1[a], -out1(a));
+      compensated_add(s2[a], l2[a], in2(a));
+      compensated_add(s2[a], l2[a], -mid(a));
     }
   }
   const Scalar den = Scalar(2) * static_cast<Scalar>(last + 1);
