@@ -48,11 +48,39 @@ class ProgressLine {
   bool shown_ = false;
 };
 
-// Microseconds since the first sample, wrapping as the device's clock would.
-std::uint32_t device_time_us(double t, double t0) {
-  const double us = std::min(std::max((t - t0) * 1e6, 0.0), 1e15);
-  return static_cast<std::uint32_t>(static_cast<std::uint64_t>(std::llround(us)) & 0xffffffffu);
-}
+// The device's 32-bit microsecond clock over the input's times: microseconds since the first
+// sample, wrapping as the device's clock would. A step beyond kMaxStepUs either way (a logger's
+// clock jumping by days, or set back) is taken as exactly kMaxStepUs: past the calibrator's gap
+// limit, so a gap or a clock that went back, and the samples after it are timed from there
+// (a 1e9 s jump would otherwise leave every later time beyond what the clock can say).
+class DeviceClock {
+ public:
+  static constexpr double kMaxStepUs = 1e9;  // 1000 s: more than any gap limit, < 2^31 us
+
+  std::uint32_t operator()(double t) {
+    if (!started_) {
+      started_ = true;
+      base_t_ = t;
+    }
+    double us = (t - base_t_) * 1e6;
+    const double step = us - last_us_;
+    if (!(std::abs(step) <= kMaxStepUs)) {  // also a non-finite time (never from the readers)
+      base_us_ += last_us_ + (step > 0 ? kMaxStepUs : -kMaxStepUs);
+      base_t_ = t;
+      us = 0;
+    }
+    last_us_ = us;
+    const auto whole =
+        static_cast<std::int64_t>(std::llround(std::fmod(us + base_us_, 4294967296.0)));
+    return static_cast<std::uint32_t>(static_cast<std::uint64_t>(whole) & 0xffffffffu);
+  }
+
+ private:
+  bool started_ = false;
+  double base_t_ = 0;   // input time (s) where the current stretch starts
+  double base_us_ = 0;  // the device's clock there (us, unwrapped)
+  double last_us_ = 0;  // the previous sample, us after base_t_
+};
 
 double accel_nominal_scale(const Options& o) {
   switch (o.accel_unit) {
@@ -146,9 +174,9 @@ double rms(const std::vector<double>& v) {
 
 // The device's view of one sample (temperature NaN: none).
 template <typename Scalar>
-ImuSample<Scalar> imu_sample(const Sample& x, double t0) {
+ImuSample<Scalar> imu_sample(const Sample& x) {
   ImuSample<Scalar> s;
-  s.t_us = device_time_us(x.t, t0);
+  s.t_us = x.t_us;
   for (int a = 0; a < 3; ++a) {
     s.acc(a) = static_cast<Scalar>(x.acc[a]);
     s.gyro(a) = static_cast<Scalar>(x.gyro[a]);
@@ -216,44 +244,54 @@ void compensate(const std::vector<Sample>& raw, const TemperatureModel<Scalar>& 
   }
 }
 
-// The limits of the integer format that one sensor's readings fit: all integers within
-// [-32768, 32767] are int16 (a reading at -32768 or 32767 is clipped); within [0, 65535],
-// uint16. False if they fit neither (or there are none).
-bool integer_format(const std::vector<Sample>& samples, bool gyro, double& lo, double& hi,
-                    std::string& name) {
+// The values one sensor's readings take, gathered as they are read: whether all are integers,
+// and their least and largest.
+struct IntegerRange {
+  bool integers = true;
   double least = HUGE_VAL, most = -HUGE_VAL;
-  for (const Sample& x : samples) {
-    const double* v = gyro ? x.gyro : x.acc;
+
+  void add(const double v[3]) {
     for (int a = 0; a < 3; ++a) {
-      if (!std::isfinite(v[a])) continue;
-      if (v[a] != std::floor(v[a])) return false;
+      if (!integers || !std::isfinite(v[a])) continue;
+      constexpr double kLimit = 2147483647.0;  // beyond it no reading is an int16 or uint16
+      if (!(std::abs(v[a]) <= kLimit) ||
+          v[a] != static_cast<double>(static_cast<std::int64_t>(v[a]))) {
+        integers = false;
+        continue;
+      }
       least = std::min(least, v[a]);
       most = std::max(most, v[a]);
     }
   }
-  if (least >= -32768 && most <= 32767) {
-    lo = -32768;
-    hi = 32767;
-    name = "int16";
-  } else if (least >= 0 && most <= 65535) {
-    lo = 0;
-    hi = 65535;
-    name = "uint16";
-  } else {
-    return false;
+
+  // The limits of the integer format the readings fit: all integers within [-32768, 32767] are
+  // int16 (a reading at -32768 or 32767 is clipped); within [0, 65535], uint16. False if they
+  // fit neither (or there are none).
+  bool format(double& lo, double& hi, std::string& name) const {
+    if (!integers || least > most) return false;
+    if (least >= -32768 && most <= 32767) {
+      lo = -32768;
+      hi = 32767;
+      name = "int16";
+    } else if (least >= 0 && most <= 65535) {
+      lo = 0;
+      hi = 65535;
+      name = "uint16";
+    } else {
+      return false;
+    }
+    return true;
   }
-  return true;
-}
+};
 
 // In counts without a range given, the readings at the limits of their integer format are
 // saturated (the ADC clipped): the range is inferred from the data.
-void infer_ranges(const std::vector<Sample>& samples, bool has_gyro, Options& o) {
+void infer_ranges(const IntegerRange& acc, const IntegerRange& gyro, bool has_gyro, Options& o) {
   if (o.accel_unit == AccelUnit::kCounts && !std::isfinite(o.accel_min))
-    if (!integer_format(samples, false, o.accel_min, o.accel_max, o.accel_range_inferred))
+    if (!acc.format(o.accel_min, o.accel_max, o.accel_range_inferred))
       o.accel_min = o.accel_max = kNaN;
   if (has_gyro && o.gyro_unit == GyroUnit::kCounts && !std::isfinite(o.gyro_min))
-    if (!integer_format(samples, true, o.gyro_min, o.gyro_max, o.gyro_range_inferred))
-      o.gyro_min = o.gyro_max = kNaN;
+    if (!gyro.format(o.gyro_min, o.gyro_max, o.gyro_range_inferred)) o.gyro_min = o.gyro_max = kNaN;
 }
 
 const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
@@ -589,9 +627,14 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   // The whole recording first (the saturation limits are inferred from all of it), then the
   // calibrator over it, sample by sample as on the device.
   ProgressLine progress(!o.quiet);
+  DeviceClock clock;
+  IntegerRange acc_range, gyro_range;
   Record r;
   while (reader.next(r, diag)) {
+    acc_range.add(r.acc);
+    gyro_range.add(r.gyro);
     samples.push_back({r.t,
+                       clock(r.t),
                        {r.acc[0], r.acc[1], r.acc[2]},
                        {r.gyro[0], r.gyro[1], r.gyro[2]},
                        r.temp,
@@ -600,6 +643,11 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
       for (double& g : samples.back().gyro) g = 0;
     if (std::isfinite(r.mag[0])) ++run.mag.readings;  // the reader gives all three axes or none
     const auto n = static_cast<long>(samples.size());
+    if (n == 1024) {  // from a file of known size: room for all of it at once, not by doubling
+      const double read = reader.fraction_read();
+      if (read > 0 && read < 1)
+        samples.reserve(static_cast<std::size_t>(std::min(1.05 * 1024 / read + 1024, 1e9)));
+    }
     if (progress.due(n)) progress.show(n, reader.fraction_read());
   }
   run.samples = static_cast<long>(samples.size());
@@ -612,7 +660,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   run.t_last = samples.back().t;
   if (samples.size() > 1 && run.time_source != "none")
     run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
-  if (run.has_accel) infer_ranges(samples, run.has_gyro, o);
+  if (run.has_accel) infer_ranges(acc_range, gyro_range, run.has_gyro, o);
   if (run.mode == "magnetometer") return magnetometer_alone<Scalar>(o, samples, run);
   if (run.mode == "poses") return pose_file<Scalar>(o, samples, run);
 
@@ -646,12 +694,11 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   };
 
   std::map<std::string, StreamEvent> events;
-  const double t0 = samples.front().t;
   for (const Sample& x : samples) {
     if (std::isfinite(x.mag[0]))
       mag->add(Vector3<Scalar>(static_cast<Scalar>(x.mag[0]), static_cast<Scalar>(x.mag[1]),
                                static_cast<Scalar>(x.mag[2])));
-    const Status st = cal->add(imu_sample<Scalar>(x, t0));
+    const Status st = cal->add(imu_sample<Scalar>(x));
     keep_rests();
     if (st != Status::kOk) {
       StreamEvent& e = events[to_string(st)];
@@ -695,7 +742,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
       auto cal2 = std::make_unique<Cal>(cs);
       std::vector<RestSummary<Scalar>> rests2;
       for (const Sample& x : next) {
-        cal2->add(imu_sample<Scalar>(x, t0));
+        cal2->add(imu_sample<Scalar>(x));
         while (static_cast<int>(rests2.size()) < cal2->poses().size)
           rests2.push_back(cal2->last_rest());
       }
@@ -813,9 +860,9 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   std::vector<std::size_t> first_sample, last_sample;
   std::size_t j = 0;
   for (int i = 0; i < poses.size; ++i) {
-    while (j < samples.size() && device_time_us(samples[j].t, t0) != cal->pose_begin_us(i)) ++j;
+    while (j < samples.size() && samples[j].t_us != cal->pose_begin_us(i)) ++j;
     const std::size_t b = std::min(j, samples.size() - 1);
-    while (j < samples.size() && device_time_us(samples[j].t, t0) != cal->pose_end_us(i)) ++j;
+    while (j < samples.size() && samples[j].t_us != cal->pose_end_us(i)) ++j;
     const std::size_t e = std::min(j, samples.size() - 1);
     first_sample.push_back(b);
     last_sample.push_back(e);

@@ -68,6 +68,7 @@ struct Options {
 // One sample as read (input units, time in s from the file).
 struct Sample {
   double t;
+  std::uint32_t t_us;  // the device's clock at this sample (see DeviceClock in calibrate.cpp)
   double acc[3];
   double gyro[3];
   double temp = kNaN;                  // deg C (NaN: none)
