@@ -2,6 +2,7 @@
 #include "cli.hpp"
 
 #include <cstdio>
+#include <new>
 
 namespace imucal::cli {
 
@@ -119,11 +120,20 @@ int imucal_main(const std::vector<std::string>& args) {
     return args.empty() ? 2 : 0;
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
-  if (args[0] == "calibrate") return calibrate_command(rest, false);
-  if (args[0] == "report") return calibrate_command(rest, true);
-  if (args[0] == "simulate") return simulate_command(rest);
-  if (args[0] == "record") return record_command(rest);
-  if (args[0] == "noise") return noise_command(rest);
+  try {
+    if (args[0] == "calibrate") return calibrate_command(rest, false);
+    if (args[0] == "report") return calibrate_command(rest, true);
+    if (args[0] == "simulate") return simulate_command(rest);
+    if (args[0] == "record") return record_command(rest);
+    if (args[0] == "noise") return noise_command(rest);
+  } catch (const std::bad_alloc&) {
+    // calibrate, report and noise hold every sample of the recording (up to 100 bytes each).
+    std::fprintf(stderr,
+                 "imucal %s: out of memory (it holds the whole recording, up to 100 bytes a "
+                 "sample): give it a shorter recording, or run it where there is more memory\n",
+                 args[0].c_str());
+    return 2;
+  }
   std::fprintf(stderr,
                "imucal: unknown command '%s' (calibrate, report, simulate, record, noise, help)\n",
                args[0].c_str());
