@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -534,6 +535,160 @@ TEST(CliInput, LongLineEndingInCarriageReturnsIsSkippedWholeFromAStream) {
     EXPECT_EQ(ds.count(), 1u) << messages(ds);
     EXPECT_EQ(dm.count(), 1u) << messages(dm);
   }
+}
+
+// The readers' fast path for decimal numbers gives, bit for bit, what std::from_chars gives
+// and ends where it ends; it declines what it cannot read exactly. Numbers as loggers and
+// printf write them, across magnitudes, and strings at its edges.
+TEST(CliInput, TheFastDecimalPathReadsAsFromChars) {
+  sim::Random rng(2024);
+  std::vector<std::string> texts = {"0",
+                                    "-0",
+                                    "1.",
+                                    ".5",
+                                    "-.5",
+                                    ".",
+                                    "-",
+                                    "1e",
+                                    "1e+",
+                                    "1e-3x",
+                                    "2.5E+04",
+                                    "9007199254740993",
+                                    "9007199254740992",
+                                    "12345678901234567890",
+                                    "1e22",
+                                    "1e23",
+                                    "1e-22",
+                                    "1e-23",
+                                    "123456.789e-30",
+                                    "0.000000000000000000001",
+                                    "1e00005",
+                                    "-3.3108000e+04",
+                                    "nan",
+                                    "inf",
+                                    "-inf",
+                                    "1,5",
+                                    "0x10"};
+  const char* const kFormats[] = {"%.17g", "%.6g", "%.3f", "%.7e", "%.0f", "%.12f", "%.2e"};
+  for (int i = 0; i < 200000; ++i) {
+    const double magnitude = std::pow(10.0, rng.uniform(-12, 12));
+    const double v = (rng.uniform() < 0.5 ? -1 : 1) * magnitude * rng.uniform();
+    char buf[64];
+    std::snprintf(buf, sizeof buf, kFormats[i % 7], v);
+    texts.push_back(buf);
+    if (i % 10 == 0)
+      texts.push_back(std::to_string(static_cast<long long>(rng.uniform(-1e6, 1e6))));
+  }
+  std::size_t fast = 0;
+  for (const std::string& text : texts) {
+    const char* b = text.data();
+    const char* e = b + text.size();
+    double want = 0, got = 0;
+    const auto r = std::from_chars(b, e, want);
+    const char* end = decimal_fast(b, e, got);
+    if (end == nullptr) continue;
+    ++fast;
+    ASSERT_EQ(r.ec, std::errc()) << text;
+    EXPECT_EQ(end, r.ptr) << text;
+    EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0) << text << ": " << got << " vs " << want;
+  }
+  EXPECT_GT(fast, texts.size() * 3 / 4);  // the common numbers do take it
+}
+
+// A line the one-pass reader accepts reads the same field by field; a line of plain numbers is
+// accepted. Random lines of numbers, blanks, commas, semicolons, empty fields, signs and words.
+TEST(CliInput, OnePassLinesReadAsFieldByField) {
+  sim::Random rng(7);
+  const char* const kTokens[] = {"1.5", "-2", "3.3108000e+04", "+4", "nan", "x", "", "7e", "0.25"};
+  const char* const kSeparators[] = {" ", "\t", ",", ";", " , ", "  ", ",,", " ;"};
+  std::vector<Field> fields;
+  int accepted = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const int n = 1 + static_cast<int>(rng.uniform() * 6);
+    std::string line = rng.uniform() < 0.2 ? " " : "";
+    for (int k = 0; k < n; ++k) {
+      if (k > 0) line += kSeparators[static_cast<int>(rng.uniform() * 8)];
+      line += rng.uniform() < 0.7 ? kTokens[k % 3 == 0   ? 0
+                                            : k % 3 == 1 ? 1
+                                                         : 2]
+                                  : kTokens[static_cast<int>(rng.uniform() * 9)];
+    }
+    if (rng.uniform() < 0.2) line += " ";
+    for (std::size_t count = 1; count <= 6; ++count) {
+      double x[6];
+      if (!plain_numbers(line, x, count)) continue;
+      ++accepted;
+      split_fields(line, fields);
+      ASSERT_EQ(fields.size(), count) << "'" << line << "'";
+      for (std::size_t k = 0; k < count; ++k) {
+        double v = 0;
+        ASSERT_TRUE(parse_number(fields[k].text, v)) << "'" << line << "'";
+        EXPECT_TRUE(std::isfinite(v));
+        EXPECT_EQ(v, x[k]) << "'" << line << "'";
+      }
+    }
+  }
+  EXPECT_GT(accepted, 10000);
+  double x[4];
+  for (const char* line : {"0.1 2 3 4", "  0.1\t2  3 4 ", "0.1,2,3,4", "0.1 , 2;3 ,4"})
+    EXPECT_TRUE(plain_numbers(line, x, 4)) << line;
+  for (const char* line : {"0.1 2 3", "0.1 2 3 4 5", "0.1,2 3,4", "0.1,,3,4", "+0.1 2 3 4",
+                           "0.1 nan 3 4", "0.1 2 3 4,"})
+    EXPECT_FALSE(plain_numbers(line, x, 4)) << line;
+}
+
+// Two imu_tk files read from disk (in blocks, the one-pass path and the field-by-field one)
+// give the samples, every diagnostic in its order and the skipped count that the same texts
+// give from memory. Bad lines in both files, unmatched times, settings after the data, lines
+// left over at the end.
+TEST(CliInput, ImuTkFilesFromDiskReadAsFromMemory) {
+  sim::Random rng(5);
+  std::string acc, gyro;
+  for (int i = 0; i < 30000; ++i) {
+    char line[96];
+    const double t = 0.01 * i;
+    std::snprintf(line, sizeof line, "%.6f %.3f %.3f %.3f\n", t, rng.normal(), rng.normal(), 9.8);
+    acc += (i % 7919 == 5) ? "0.5 x 1 2\n" : line;
+    std::snprintf(line, sizeof line, "%.6f\t%.5e\t%.5e\t%.5e\n", t, rng.normal(), rng.normal(),
+                  0.1);
+    if (i % 4999 == 17) gyro += "1 2 3\n";
+    if (i % 9001 == 100) gyro += "# imucal: time-unit=ms\n";
+    if (i % 6007 == 42) continue;  // a gyro sample missing: the accelerometer's is unmatched
+    gyro += (i % 11003 == 7) ? "0 1 2 3\n" : line;  // time going back
+  }
+  gyro += "400 1 2 3\n401 1 2 3\n";  // after the accelerometer's last sample
+  const std::string a = temp_path("disk_acc.txt"), g = temp_path("disk_gyro.txt");
+  write_file(a, acc);
+  write_file(g, gyro);
+  SampleReader from_disk, in_order;
+  Diagnostics da(100000), dm(100000);
+  ASSERT_TRUE(from_disk.open({a, g}, Format::kImuTk, da));
+  ASSERT_TRUE(in_order.open_memory({acc, gyro}, Format::kImuTk, dm));
+  Record ra, rm;
+  long n = 0;
+  for (;;) {
+    const bool x = from_disk.next(ra, da), y = in_order.next(rm, dm);
+    ASSERT_EQ(x, y) << n;
+    if (!x) break;
+    ASSERT_EQ(ra.t, rm.t);
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(ra.acc[k], rm.acc[k]);
+      ASSERT_EQ(ra.gyro[k], rm.gyro[k]);
+    }
+    ++n;
+  }
+  EXPECT_GT(n, 29000);
+  EXPECT_EQ(from_disk.lines_skipped(), in_order.lines_skipped());
+  EXPECT_GT(from_disk.lines_skipped(), 15);
+  ASSERT_EQ(da.count(), dm.count());
+  EXPECT_GT(da.count(), 15u);
+  for (std::size_t k = 0; k < dm.kept().size(); ++k) {
+    Diagnostic x = da.kept()[k], y = dm.kept()[k];
+    x.file = y.file = "";  // names differ: paths against "<text>"
+    EXPECT_EQ(x.text(), y.text()) << k;
+  }
+  std::remove(a.c_str());
+  std::remove(g.c_str());
 }
 
 TEST(CliInput, SettingsAfterTheHeaderAreReportedNotSilentlyIgnored) {
