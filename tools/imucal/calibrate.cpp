@@ -4,7 +4,9 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <utility>
@@ -1004,6 +1006,61 @@ void print_diagnostics(const Diagnostics& diag) {
     std::fprintf(stderr, "imucal: ... and %zu more\n", diag.count() - diag.kept().size());
 }
 
+// printf into a string.
+std::string format_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string format_text(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return buf;
+}
+
+// The settings the input itself gives (its `# imucal:` comments, its columns) joined to the
+// command's, and checked before any sample is read. False with the reason otherwise.
+bool settle_options(SampleReader& reader, Options& o, std::string& error) {
+  if (!apply_file_settings(reader.file_settings(), o, error)) return false;
+  if (!(o.min_rest <= 600 && o.initial_rest <= 3600)) {
+    error = format_text(
+        "--initial-rest (%g s) must be at most 3600 s, --min-rest (%g s) at most "
+        "600 s",
+        o.initial_rest, o.min_rest);
+    return false;
+  }
+  if (o.mag_unit == MagUnit::kCounts && !std::isfinite(o.mag_lsb_per_ut)) {
+    error = format_text(
+        "--mag-unit counts needs the nominal --mag-lsb-per-ut (counts per uT, "
+        "from the data sheet): the field bounds are in uT");
+    return false;
+  }
+  if (o.accel_unit == AccelUnit::kCounts && std::isfinite(o.accel_lsb_per_g) &&
+      !std::isfinite(o.accel_zero))
+    o.accel_zero = 0;  // signed counts unless a zero was given
+  reader.set_time_unit(o.time_unit);
+  reader.set_rate(o.nominal_rate_hz);
+  // An accelerometer alone without time is a file of pose means (one line each).
+  const bool csv = reader.format() == Format::kCsv;
+  const bool accel_alone =
+      csv && reader.has_accelerometer() && !reader.has_gyroscope() && !reader.has_magnetometer();
+  if (accel_alone && !reader.has_time() && !(o.nominal_rate_hz > 0)) o.pose_file = true;
+  if (o.pose_file && !accel_alone) {
+    error = format_text(
+        "--poses reads one pose mean per line of an accelerometer alone (columns "
+        "ax, ay, az; found %s)",
+        reader.column_names().c_str());
+    return false;
+  }
+  if (csv && reader.has_gyroscope() && !reader.has_time() && !(o.nominal_rate_hz > 0)) {
+    error = format_text(
+        "%s has no time column (t): give --rate HZ (sample i is then at i/HZ s), "
+        "or name a t column with --columns",
+        o.files[0].c_str());
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 int calibrate_command(const std::vector<std::string>& args, bool report) {
@@ -1035,45 +1092,8 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     print_diagnostics(diag);
     return 2;
   }
-  if (!apply_file_settings(reader.file_settings(), o, error)) {
+  if (!settle_options(reader, o, error)) {
     std::fprintf(stderr, "imucal: %s\n", error.c_str());
-    return 2;
-  }
-  if (!(o.min_rest <= 600 && o.initial_rest <= 3600)) {
-    std::fprintf(stderr,
-                 "imucal: --initial-rest (%g s) must be at most 3600 s, --min-rest (%g s) at most "
-                 "600 s\n",
-                 o.initial_rest, o.min_rest);
-    return 2;
-  }
-  if (o.mag_unit == MagUnit::kCounts && !std::isfinite(o.mag_lsb_per_ut)) {
-    std::fprintf(stderr,
-                 "imucal: --mag-unit counts needs the nominal --mag-lsb-per-ut (counts per uT, "
-                 "from the data sheet): the field bounds are in uT\n");
-    return 2;
-  }
-  if (o.accel_unit == AccelUnit::kCounts && std::isfinite(o.accel_lsb_per_g) &&
-      !std::isfinite(o.accel_zero))
-    o.accel_zero = 0;  // signed counts unless a zero was given
-  reader.set_time_unit(o.time_unit);
-  reader.set_rate(o.nominal_rate_hz);
-  // An accelerometer alone without time is a file of pose means (one line each).
-  const bool csv = reader.format() == Format::kCsv;
-  const bool accel_alone =
-      csv && reader.has_accelerometer() && !reader.has_gyroscope() && !reader.has_magnetometer();
-  if (accel_alone && !reader.has_time() && !(o.nominal_rate_hz > 0)) o.pose_file = true;
-  if (o.pose_file && !accel_alone) {
-    std::fprintf(stderr,
-                 "imucal: --poses reads one pose mean per line of an accelerometer alone (columns "
-                 "ax, ay, az; found %s)\n",
-                 reader.column_names().c_str());
-    return 2;
-  }
-  if (csv && reader.has_gyroscope() && !reader.has_time() && !(o.nominal_rate_hz > 0)) {
-    std::fprintf(stderr,
-                 "imucal: %s has no time column (t): give --rate HZ (sample i is then at i/HZ s), "
-                 "or name a t column with --columns\n",
-                 o.files[0].c_str());
     return 2;
   }
 
@@ -1120,6 +1140,44 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   if (!o.truth_path.empty()) written = compare_with_truth(run, o.truth_path, summary) && written;
 
   if (!written) return 2;
+  return code;
+}
+
+int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
+                     const std::string& columns, MemoryRun& out) {
+  Options o;
+  std::vector<std::string> all = args;
+  all.push_back("<arrays>");
+  if (!parse_calibrate_options(all, o, out.error)) return 2;
+  o.quiet = true;
+  if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
+  Diagnostics diag;
+  SampleReader reader;
+  if (!reader.open_records(std::move(records), columns, diag) ||
+      !settle_options(reader, o, out.error)) {
+    if (out.error.empty() && !diag.kept().empty()) out.error = diag.kept()[0].message;
+    return 2;
+  }
+  Run run;
+  std::vector<Sample> samples;
+  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
+                                : run_calibration<float>(o, reader, diag, run, samples);
+  run.diagnostic_count = static_cast<long>(diag.count());
+  for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
+  if (run.samples == 0) {
+    out.error = "no samples";
+    return 2;
+  }
+  char* text = nullptr;
+  std::size_t size = 0;
+  if (std::FILE* f = open_memstream(&text, &size)) {
+    print_summary(run, o, f);
+    std::fclose(f);
+    out.summary.assign(text, size);
+    std::free(text);
+  }
+  out.json = run_json(run, o);
+  if (run.usable && run.record_error.empty()) out.record = run.record;
   return code;
 }
 

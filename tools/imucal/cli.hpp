@@ -9,6 +9,7 @@
 // unreadable input.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -28,5 +29,17 @@ int calibrate_command(const std::vector<std::string>& args, bool report);
 int simulate_command(const std::vector<std::string>& args);
 int record_command(const std::vector<std::string>& args);
 int noise_command(const std::vector<std::string>& args);
+
+// `imucal calibrate` over samples in memory (the Python package): `args` are the command's
+// options (no input files), `columns` names what each Record holds (as --columns: e.g.
+// "t,ax,ay,az,gx,gy,gz"). Returns the command's exit code; fills what it would print and write.
+struct MemoryRun {
+  std::string error;                 // exit code 2: why
+  std::string summary;               // the summary the command prints
+  std::string json;                  // what --json writes
+  std::vector<std::uint8_t> record;  // what --record writes (empty if not usable)
+};
+int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
+                     const std::string& columns, MemoryRun& out);
 
 }  // namespace imucal::cli

@@ -393,6 +393,68 @@ bool SampleReader::open_streams(const std::vector<std::FILE*>& files, Format for
   return start(format, diag);
 }
 
+bool SampleReader::open_records(std::vector<Record> records, const std::string& columns,
+                                Diagnostics& diag) {
+  files_ = 1;
+  in_[0].open_memory("", "<arrays>", LineReader::kMaxLine);
+  format_ = Format::kCsv;
+  from_records_ = true;
+  records_ = std::move(records);
+  std::vector<Field> parts;
+  split_fields(columns, parts);
+  std::vector<std::string> names;
+  for (const Field& f : parts) names.push_back(lower(f.text));
+  columns_source_ = "arrays";
+  data_started_ = true;
+  return name_columns(names, true, diag);
+}
+
+// The next good sample of open_records(); the line of a report is the sample's index + 1.
+bool SampleReader::next_record(Record& r, Diagnostics& diag) {
+  while (next_record_ < records_.size()) {
+    const long line = static_cast<long>(++next_record_);
+    r = records_[static_cast<std::size_t>(line - 1)];
+    auto say = [&](const std::string& message) {
+      diag.add({"<arrays>", line, 0, message + ": sample skipped"});
+      ++skipped_;
+    };
+    bool finite = col_t_ < 0 || std::isfinite(r.t);
+    for (int a = 0; a < 3; ++a) {
+      if (col_acc_[0] >= 0) finite = finite && std::isfinite(r.acc[a]);
+      if (col_gyro_[0] >= 0) finite = finite && std::isfinite(r.gyro[a]);
+      if (col_acc_[0] < 0) r.acc[a] = kNaN;
+      if (col_gyro_[0] < 0) r.gyro[a] = kNaN;
+      if (col_mag_[0] < 0) r.mag[a] = kNaN;
+    }
+    if (col_temp_ < 0) r.temp = kNaN;
+    if (!finite) {
+      say("a time or a reading is not finite");
+      continue;
+    }
+    // A magnetometer reading is all three axes or none; a temperature may be missing.
+    if (!(std::isfinite(r.mag[0]) && std::isfinite(r.mag[1]) && std::isfinite(r.mag[2])))
+      r.mag[0] = r.mag[1] = r.mag[2] = kNaN;
+    if (!std::isfinite(r.temp)) r.temp = kNaN;
+    if (col_t_ >= 0) {
+      r.t *= time_scale_;
+      if (have_last_ && !(r.t > last_t_)) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg, "time %.9g s is not after the previous sample's %.9g s", r.t,
+                      last_t_);
+        say(msg);
+        continue;
+      }
+    } else {
+      r.t = rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
+    }
+    have_last_ = true;
+    last_t_ = r.t;
+    ++index_;
+    return true;
+  }
+  return false;
+}
+
 void SampleReader::set_time_unit(TimeUnit time) {
   time_scale_ = time == TimeUnit::kSeconds ? 1.0 : time == TimeUnit::kMilliseconds ? 1e-3 : 1e-6;
 }
@@ -780,6 +842,7 @@ bool SampleReader::next_imutk(Record& r, Diagnostics& diag) {
 }
 
 bool SampleReader::next(Record& r, Diagnostics& diag) {
+  if (from_records_) return next_record(r, diag);
   if (format_ == Format::kCsv) return next_csv(r, diag);
   if (!primed_) {
     primed_ = true;

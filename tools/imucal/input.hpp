@@ -141,6 +141,10 @@ class SampleReader {
   // Open streams, not closed here (the fuzz target: small buffers reach every boundary).
   bool open_streams(const std::vector<std::FILE*>& files, Format format, Diagnostics& diag,
                     std::size_t max_line, std::size_t block);
+  // Samples already in memory (the Python package's arrays), as a CSV file of these columns
+  // (comma-separated names, as --columns) would give them: a required reading that is not
+  // finite, or a time not after the previous one, is reported and the sample skipped.
+  bool open_records(std::vector<Record> records, const std::string& columns, Diagnostics& diag);
   // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
   void set_time_unit(TimeUnit time);
   // Without a t column, sample i (0-based, good samples) is at i / hz seconds (hz 0: at i s).
@@ -178,6 +182,7 @@ class SampleReader {
   bool read_header(Diagnostics& diag);
   bool name_columns(const std::vector<std::string>& names, bool strict, Diagnostics& diag);
   bool next_csv(Record& r, Diagnostics& diag);
+  bool next_record(Record& r, Diagnostics& diag);
   bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
   bool next_imutk(Record& r, Diagnostics& diag);
   bool content_line(LineReader& in, std::string_view& line, Diagnostics& diag);
@@ -200,6 +205,9 @@ class SampleReader {
   double rate_hz_ = 0;
   long index_ = 0;  // good samples so far (their time without a t column)
   std::vector<Field> fields_;
+  std::vector<Record> records_;  // open_records(): served in order
+  std::size_t next_record_ = 0;
+  bool from_records_ = false;
   std::string pending_[2];  // imu_tk: the first sample line, read by open()
   bool has_pending_[2] = {false, false};
   // imu_tk: one look-ahead sample per file.

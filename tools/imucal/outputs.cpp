@@ -501,7 +501,7 @@ Json temperature_json(const Run& run, const Options& o) {
 
 }  // namespace
 
-bool write_json(const Run& run, const Options& o, const std::string& path) {
+std::string run_json(const Run& run, const Options& o) {
   Json j;
   j["imucal"] = "0.1.0";
   Json input;
@@ -628,7 +628,11 @@ bool write_json(const Run& run, const Options& o, const std::string& path) {
                      {"angle_before_deg", number(m.angle_before)},
                      {"angle_after_deg", number(m.angle_after)}});
   j["moves"] = moves;
-  return write_text_file(path, j.dump(2) + "\n");
+  return j.dump(2) + "\n";
+}
+
+bool write_json(const Run& run, const Options& o, const std::string& path) {
+  return write_text_file(path, run_json(run, o));
 }
 
 bool write_header(const Run& run, const Options& o, const std::string& path) {

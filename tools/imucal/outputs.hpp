@@ -10,6 +10,8 @@
 namespace imucal::cli {
 
 void print_summary(const Run& run, const Options& options, std::FILE* out);
+// The JSON record of the run (as --json writes it).
+std::string run_json(const Run& run, const Options& options);
 bool write_json(const Run& run, const Options& options, const std::string& path);
 bool write_header(const Run& run, const Options& options, const std::string& path);
 // Prints each parameter's error in sigmas against the truth file `imucal simulate` wrote.
