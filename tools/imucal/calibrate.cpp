@@ -615,7 +615,9 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
                     std::vector<Sample>& samples) {
   using Cal = Calibrator<Scalar>;
   run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
-  run.format = reader.format() == Format::kCsv ? "csv" : "imu_tk";
+  run.format = reader.from_records()             ? "arrays"
+               : reader.format() == Format::kCsv ? "csv"
+                                                 : "imu_tk";
   run.has_accel = reader.has_accelerometer();
   run.has_gyro = reader.has_gyroscope();
   run.has_mag = reader.has_magnetometer();

@@ -161,6 +161,7 @@ class SampleReader {
   bool next(Record& r, Diagnostics& diag);
 
   Format format() const { return format_; }
+  bool from_records() const { return from_records_; }  // open_records()
   bool has_temperature() const { return col_temp_ >= 0; }
   bool has_magnetometer() const { return col_mag_[0] >= 0; }
   // Both for an imu_tk pair; for CSV, as the columns say.
