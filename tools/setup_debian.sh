@@ -4,7 +4,8 @@
 set -euo pipefail
 packages=(cmake ninja-build g++ libeigen3-dev googletest libgtest-dev libbenchmark-dev
   clang-format gcc-arm-none-eabi picolibc-arm-none-eabi libstdc++-arm-none-eabi-picolibc
-  qemu-system-arm nlohmann-json3-dev clang libclang-rt-14-dev librsvg2-bin python3)
+  qemu-system-arm nlohmann-json3-dev clang libclang-rt-14-dev librsvg2-bin python3
+  pybind11-dev python3-dev python3-numpy python3-pytest)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
