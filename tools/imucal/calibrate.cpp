@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -1006,17 +1005,6 @@ void print_diagnostics(const Diagnostics& diag) {
   for (const Diagnostic& d : diag.kept()) std::fprintf(stderr, "imucal: %s\n", d.text().c_str());
   if (diag.count() > diag.kept().size())
     std::fprintf(stderr, "imucal: ... and %zu more\n", diag.count() - diag.kept().size());
-}
-
-// printf into a string.
-std::string format_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string format_text(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
 }
 
 // The settings the input itself gives (its `# imucal:` comments, its columns) joined to the

@@ -42,4 +42,13 @@ struct MemoryRun {
 int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
                      const std::string& columns, MemoryRun& out);
 
+// `imucal noise` over samples in memory: its summary, --json, --kalibr and (with --svg) page.
+struct NoiseRun {
+  std::string error;                       // exit code 2: why
+  std::string summary, json, kalibr, svg;  // kalibr: empty unless the units are SI
+  std::vector<std::string> diagnostics;
+};
+int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
+                 const std::string& columns, NoiseRun& out);
+
 }  // namespace imucal::cli

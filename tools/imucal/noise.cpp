@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -334,43 +335,21 @@ void print_diagnostics(const Diagnostics& diag) {
     std::fprintf(stderr, "imucal: ... and %zu more\n", diag.count() - diag.kept().size());
 }
 
-}  // namespace
-
-int noise_command(const std::vector<std::string>& args) {
-  Options o;
-  std::string error;
-  if (!parse_calibrate_options(args, o, error)) {
-    std::fprintf(stderr, "imucal noise: %s\n", error.c_str());
-    return 2;
-  }
-  if (o.files.empty()) {
-    std::fprintf(stderr, "imucal noise: no input (a CSV file, - for stdin, or two imu_tk files)\n");
-    return 2;
-  }
-  Diagnostics diag;
-  SampleReader reader;
-  reader.set_columns(o.columns);
-  if (!reader.open(o.files, o.format, diag)) {
-    print_diagnostics(diag);
-    return 2;
-  }
-  if (!apply_file_settings(reader.file_settings(), o, error)) {
-    std::fprintf(stderr, "imucal noise: %s\n", error.c_str());
-    return 2;
-  }
+// The noise of the samples `reader` gives, with the options settled: the summary and every
+// output's text. Exit code 0, or 2 with the reason.
+int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& result) {
   reader.set_time_unit(o.time_unit);
   reader.set_rate(o.nominal_rate_hz);
   if (reader.format() == Format::kCsv && !reader.has_time() && !(o.nominal_rate_hz > 0)) {
-    std::fprintf(stderr,
-                 "imucal noise: %s has no time column (t): give --rate HZ (the Allan deviation "
-                 "needs the sample interval)\n",
-                 o.files[0].c_str());
+    result.error = format_text(
+        "%s has no time column (t): give --rate HZ (the Allan deviation "
+        "needs the sample interval)",
+        o.files[0].c_str());
     return 2;
   }
   const bool has_acc = reader.has_accelerometer(), has_gyro = reader.has_gyroscope();
   if (!has_acc && !has_gyro) {
-    std::fprintf(stderr, "imucal noise: no accelerometer or gyroscope columns in %s\n",
-                 o.files[0].c_str());
+    result.error = format_text("no accelerometer or gyroscope columns in %s", o.files[0].c_str());
     return 2;
   }
   // Units: SI when the options say how (counts need the nominal scale), else the input's own.
@@ -385,9 +364,9 @@ int noise_command(const std::vector<std::string>& args) {
                                                               : 1.0;
   const bool acc_si = o.accel_unit != AccelUnit::kCounts || std::isfinite(o.accel_lsb_per_g);
   if (!o.kalibr_path.empty() && ((has_gyro && !gyro_si) || (has_acc && !acc_si))) {
-    std::fprintf(stderr,
-                 "imucal noise: --kalibr needs SI units: with counts give --gyro-lsb-per-dps "
-                 "and --accel-lsb-per-g (from the data sheet)\n");
+    result.error = format_text(
+        "--kalibr needs SI units: with counts give --gyro-lsb-per-dps "
+        "and --accel-lsb-per-g (from the data sheet)");
     return 2;
   }
 
@@ -400,23 +379,22 @@ int noise_command(const std::vector<std::string>& args) {
       gyro.push_back(r.gyro[a] * gyro_scale);
     }
   }
-  print_diagnostics(diag);
   if (reader.failed()) {
-    std::fprintf(stderr, "imucal noise: the input could not be read to its end\n");
+    result.error = format_text("the input could not be read to its end");
     return 2;
   }
   const long n = static_cast<long>(t.size());
   if (n < 20) {
-    std::fprintf(stderr,
-                 "imucal noise: %ld samples: too few for an Allan deviation (20 at least; a "
-                 "useful one needs minutes of rest)\n",
-                 n);
+    result.error = format_text(
+        "%ld samples: too few for an Allan deviation (20 at least; a "
+        "useful one needs minutes of rest)",
+        n);
     return 2;
   }
   const double duration = t.back() - t.front();
   const double dt = duration / static_cast<double>(n - 1);
   if (!(dt > 0) || !std::isfinite(dt)) {
-    std::fprintf(stderr, "imucal noise: the time stamps do not advance\n");
+    result.error = format_text("the time stamps do not advance");
     return 2;
   }
   // The Allan deviation assumes a constant interval: count the intervals far from it.
@@ -445,21 +423,26 @@ int noise_command(const std::vector<std::string>& args) {
     const Status st = overlapping_allan<double>(data[s]->data(), static_cast<std::size_t>(n), 3, dt,
                                                 kPerDecade, sn.pts, kMaxTaus, sn.n_pts);
     if (st != Status::kOk && st != Status::kCapacityExceeded) {
-      std::fprintf(stderr, "imucal noise: %s: %s\n", sn.name, to_string(st));
+      result.error = format_text("%s: %s", sn.name, to_string(st));
       return 2;
     }
     for (int a = 0; a < 3; ++a) {
       const Status f = fit_noise_terms(sn.pts, sn.n_pts, a, sn.terms[a]);
       if (f != Status::kOk) {
-        std::fprintf(stderr, "imucal noise: %s axis %d: %s\n", sn.name, a, to_string(f));
+        result.error = format_text("%s axis %d: %s", sn.name, a, to_string(f));
         return 2;
       }
     }
     kalibr_numbers(sn);
   }
 
-  const bool stdout_taken = o.json_path == "-" || o.kalibr_path == "-" || o.svg_path == "-";
-  std::FILE* out = stdout_taken ? stderr : stdout;
+  char* text = nullptr;
+  std::size_t size = 0;
+  std::FILE* out = open_memstream(&text, &size);
+  if (out == nullptr) {
+    result.error = "out of memory";
+    return 2;
+  }
   std::fprintf(out,
                "imucal noise: %s\n  %ld samples over %.1f s at %.3f Hz, taken as one still "
                "recording\n",
@@ -475,9 +458,11 @@ int noise_command(const std::vector<std::string>& args) {
                "(weighted, non-negative); +- one sigma, ns: not significant\n");
   for (int s = 0; s < 2; ++s)
     if (present[s]) print_sensor(sensors[s], out);
+  std::fclose(out);
+  result.summary.assign(text, size);
+  std::free(text);
 
-  bool written = true;
-  if (!o.json_path.empty()) {
+  {
     Json j;
     j["file"] = o.files[0];
     j["samples"] = n;
@@ -488,17 +473,70 @@ int noise_command(const std::vector<std::string>& args) {
     j["model"] = "AVAR(tau) = 3 Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3";
     for (int s = 0; s < 2; ++s)
       if (present[s]) j[sensors[s].key] = sensor_json(sensors[s]);
-    written = write_text_file(o.json_path, j.dump(2) + "\n") && written;
+    result.json = j.dump(2) + "\n";
   }
-  if (!o.kalibr_path.empty()) {
-    written = write_text_file(o.kalibr_path, kalibr_yaml(has_gyro ? &sensors[0] : nullptr,
-                                                         has_acc ? &sensors[1] : nullptr, 1.0 / dt,
-                                                         o.files[0], n, duration)) &&
-              written;
+  if (!(has_gyro && !gyro_si) && !(has_acc && !acc_si))
+    result.kalibr = kalibr_yaml(has_gyro ? &sensors[0] : nullptr, has_acc ? &sensors[1] : nullptr,
+                                1.0 / dt, o.files[0], n, duration);
+  if (!o.svg_path.empty()) result.svg = noise_svg(sensors, present, o.files[0]);
+  return 0;
+}
+
+}  // namespace
+
+int noise_command(const std::vector<std::string>& args) {
+  Options o;
+  std::string error;
+  if (!parse_calibrate_options(args, o, error)) {
+    std::fprintf(stderr, "imucal noise: %s\n", error.c_str());
+    return 2;
   }
-  if (!o.svg_path.empty())
-    written = write_text_file(o.svg_path, noise_svg(sensors, present, o.files[0])) && written;
+  if (o.files.empty()) {
+    std::fprintf(stderr, "imucal noise: no input (a CSV file, - for stdin, or two imu_tk files)\n");
+    return 2;
+  }
+  Diagnostics diag;
+  SampleReader reader;
+  reader.set_columns(o.columns);
+  if (!reader.open(o.files, o.format, diag)) {
+    print_diagnostics(diag);
+    return 2;
+  }
+  if (!apply_file_settings(reader.file_settings(), o, error)) {
+    std::fprintf(stderr, "imucal noise: %s\n", error.c_str());
+    return 2;
+  }
+  NoiseRun run;
+  const int code = noise_from(o, reader, diag, run);
+  print_diagnostics(diag);
+  if (code != 0) {
+    std::fprintf(stderr, "imucal noise: %s\n", run.error.c_str());
+    return code;
+  }
+  const bool stdout_taken = o.json_path == "-" || o.kalibr_path == "-" || o.svg_path == "-";
+  std::fputs(run.summary.c_str(), stdout_taken ? stderr : stdout);
+  bool written = true;
+  if (!o.json_path.empty()) written = write_text_file(o.json_path, run.json) && written;
+  if (!o.kalibr_path.empty()) written = write_text_file(o.kalibr_path, run.kalibr) && written;
+  if (!o.svg_path.empty()) written = write_text_file(o.svg_path, run.svg) && written;
   return written ? 0 : 2;
+}
+
+int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
+                 const std::string& columns, NoiseRun& out) {
+  Options o;
+  std::vector<std::string> all = args;
+  all.push_back("<arrays>");
+  if (!parse_calibrate_options(all, o, out.error)) return 2;
+  Diagnostics diag;
+  SampleReader reader;
+  if (!reader.open_records(std::move(records), columns, diag)) {
+    out.error = diag.kept().empty() ? "the columns cannot be read" : diag.kept()[0].message;
+    return 2;
+  }
+  const int code = noise_from(o, reader, diag, out);
+  for (const Diagnostic& d : diag.kept()) out.diagnostics.push_back(d.text());
+  return code;
 }
 
 }  // namespace imucal::cli

@@ -10,6 +10,7 @@
 #include <array>
 #include <cerrno>
 #include <cmath>
+#include <cstdarg>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -370,6 +371,15 @@ int write_all(int fd, const std::string& text) {
 }
 
 }  // namespace
+
+std::string format_text(const char* format, ...) {
+  char buf[1024];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return buf;
+}
 
 bool write_text_file(const std::string& path, const std::string& text) {
   if (path == "-") {

@@ -20,6 +20,8 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
 // it, then renamed); a device or a pipe is written in place; a directory is refused. False
 // (the reason on stderr) if it cannot be written.
 bool write_text_file(const std::string& path, const std::string& text);
+// printf into a string (at most 1023 characters).
+std::string format_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
 
 // The model, said once for the summary, the JSON and the header.
 extern const char* const kAccelModel;
