@@ -54,34 +54,36 @@ std::vector<std::string> flags(const py::kwargs& options) {
   return args;
 }
 
-py::dict calibrate(const py::object& acc, const py::object& gyro, const py::object& t,
-                   const py::object& mag, const py::object& temp, const py::kwargs& options) {
+// The arrays as the records a CSV of `columns` would give.
+std::vector<imucal::cli::Record> records_of(const py::object& acc, const py::object& gyro,
+                                            const py::object& t, const py::object& mag,
+                                            const py::object& temp, std::string& columns) {
   py::ssize_t n = -1;
-  std::string columns;
   Array a, g, m, tt, te;
   const bool has_t = !t.is_none(), has_a = !acc.is_none(), has_g = !gyro.is_none(),
              has_m = !mag.is_none(), has_te = !temp.is_none();
-  if (!t.is_none()) {
+  columns.clear();
+  if (has_t) {
     tt = rows_of(t, "t", 1, n);
     columns += "t,";
   }
-  if (!acc.is_none()) {
+  if (has_a) {
     a = rows_of(acc, "acc", 3, n);
     columns += "ax,ay,az,";
   }
-  if (!gyro.is_none()) {
+  if (has_g) {
     g = rows_of(gyro, "gyro", 3, n);
     columns += "gx,gy,gz,";
   }
-  if (!mag.is_none()) {
+  if (has_m) {
     m = rows_of(mag, "mag", 3, n);
     columns += "mx,my,mz,";
   }
-  if (!temp.is_none()) {
+  if (has_te) {
     te = rows_of(temp, "temp", 1, n);
     columns += "temp,";
   }
-  if (n < 0) throw py::value_error("give acc (and gyro), or mag");
+  if (n < 0) throw py::value_error("no readings: give acc (and gyro), or mag");
   columns.pop_back();
   std::vector<imucal::cli::Record> records(static_cast<std::size_t>(n));
   for (py::ssize_t i = 0; i < n; ++i) {
@@ -94,6 +96,13 @@ py::dict calibrate(const py::object& acc, const py::object& gyro, const py::obje
     }
     if (has_te) r.temp = te.at(i);
   }
+  return records;
+}
+
+py::dict calibrate(const py::object& acc, const py::object& gyro, const py::object& t,
+                   const py::object& mag, const py::object& temp, const py::kwargs& options) {
+  std::string columns;
+  std::vector<imucal::cli::Record> records = records_of(acc, gyro, t, mag, temp, columns);
   const std::vector<std::string> args = flags(options);
   imucal::cli::MemoryRun run;
   int code = 0;
@@ -109,6 +118,25 @@ py::dict calibrate(const py::object& acc, const py::object& gyro, const py::obje
                          : py::object(py::bytes(reinterpret_cast<const char*>(run.record.data()),
                                                 run.record.size()));
   result["usable"] = code == 0;
+  return result;
+}
+
+py::dict noise(const py::object& acc, const py::object& gyro, const py::object& t,
+               const py::kwargs& options) {
+  std::string columns;
+  std::vector<imucal::cli::Record> records =
+      records_of(acc, gyro, t, py::none(), py::none(), columns);
+  const std::vector<std::string> args = flags(options);
+  imucal::cli::NoiseRun run;
+  int code = 0;
+  {
+    py::gil_scoped_release release;
+    code = imucal::cli::noise_memory(args, std::move(records), columns, run);
+  }
+  if (code != 0) throw py::value_error(run.error);
+  py::dict result = py::module_::import("json").attr("loads")(run.json);
+  result["summary"] = run.summary;
+  result["kalibr"] = run.kalibr.empty() ? py::object(py::none()) : py::object(py::str(run.kalibr));
   return result;
 }
 
@@ -213,6 +241,12 @@ PYBIND11_MODULE(imucal, m) {
         "Returns what `imucal calibrate --json` writes, as a dict, with 'summary' (the printed\n"
         "summary), 'record' (the device record's bytes, or None) and 'usable'. Raises\n"
         "ValueError where the command exits 2.");
+  m.def("noise", &noise, py::arg("acc") = py::none(), py::arg("gyro") = py::none(), py::kw_only(),
+        py::arg("t") = py::none(),
+        "noise(acc=None, gyro=None, *, t=None, **options) -> dict\n\n"
+        "The Allan deviation and fitted noise terms of a still recording, as `imucal noise\n"
+        "--json` writes them, with 'summary' and 'kalibr' (Kalibr's imu.yaml text, or None\n"
+        "unless the units are SI). Options as for calibrate (gyro_unit, rate, ...).");
   m.def("decode_record", &decode_record, py::arg("record"),
         "decode_record(record: bytes) -> dict: the parts and parameters of a device record.");
   py::class_<PyCorrector>(m, "Corrector",

@@ -91,6 +91,35 @@ def test_xsens_recording_as_the_command_gives_it():
         assert py["usable"] and len(py["poses"]) >= 38
 
 
+def test_noise_of_the_xsens_initial_rest_as_the_command_gives_it():
+    acc_file, gyro_file = (os.path.join(XSENS, n) for n in ("xsens_acc.mat", "xsens_gyro.mat"))
+    if not os.path.exists(acc_file):
+        pytest.skip("the xsens recording is not beside the clone")
+    a, g = np.loadtxt(acc_file)[:4000], np.loadtxt(gyro_file)[:4000]  # 40 s of the initial rest
+    units = dict(accel_unit="counts", accel_lsb_per_g=4070, gyro_unit="counts",
+                 gyro_lsb_per_dps=83.2522)
+    py = imucal.noise(a[:, 1:], g[:, 1:], t=a[:, 0], **units)
+    with tempfile.TemporaryDirectory() as d:
+        files = []
+        for name, x in (("acc.txt", a), ("gyro.txt", g)):
+            files.append(os.path.join(d, name))
+            np.savetxt(files[-1], x, fmt="%.9g")
+        args = [a for k, v in units.items() for a in ("--" + k.replace("_", "-"), str(v))]
+        out, yaml = os.path.join(d, "noise.json"), os.path.join(d, "imu.yaml")
+        subprocess.run([TOOL, "noise", *files, *args, "--json", out, "--kalibr", yaml],
+                       stdout=subprocess.DEVNULL, check=True)
+        with open(out) as f:
+            cmd = json.load(f)
+        with open(yaml) as f:
+            cmd_yaml = f.read()
+    for key in cmd:
+        if key != "file":
+            assert py[key] == cmd[key], key
+    assert py["kalibr"].split("\n")[1:] == cmd_yaml.split("\n")[1:]  # the file named aside
+    n = py["gyroscope"]["axes"][0]["white_noise_N"]
+    assert n["value"] > 0 and n["sigma"] < n["value"]
+
+
 def test_record_and_corrector_apply_the_calibration():
     t, acc, gyro, temp, mag, settings = bundled_arrays()
     py = imucal.calibrate(acc, gyro, t=t, temp=temp, mag=mag, **settings)
