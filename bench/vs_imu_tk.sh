@@ -17,17 +17,7 @@ if [ ! -f "$data/xsens_acc.mat" ] || [ ! -f "$peer_src/CMakeLists.txt" ]; then
 fi
 [ -x "$tool" ] || { echo "vs_imu_tk: build the host preset first ($tool)"; exit 1; }
 
-packages=(libceres-dev libgoogle-glog-dev libgflags-dev libboost-dev libeigen3-dev time)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo=sudo
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+tools/setup_debian.sh libceres-dev libgoogle-glog-dev libgflags-dev libboost-dev libeigen3-dev time
 
 # imu_tk writes its programs into its source tree: build a copy.
 peer=build/peer/imu_tk

@@ -1051,6 +1051,16 @@ bool settle_options(SampleReader& reader, Options& o, std::string& error) {
   return true;
 }
 
+// The calibration in float (the device's) or double, the diagnostics kept in the run.
+int calibrate_from(Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
+                   std::vector<Sample>& samples) {
+  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
+                                : run_calibration<float>(o, reader, diag, run, samples);
+  run.diagnostic_count = static_cast<long>(diag.count());
+  for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
+  return code;
+}
+
 }  // namespace
 
 int calibrate_command(const std::vector<std::string>& args, bool report) {
@@ -1089,10 +1099,7 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
 
   Run run;
   std::vector<Sample> samples;
-  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
-                                : run_calibration<float>(o, reader, diag, run, samples);
-  run.diagnostic_count = static_cast<long>(diag.count());
-  for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
+  const int code = calibrate_from(o, reader, diag, run, samples);
   print_diagnostics(diag);
   if (run.samples == 0) return 2;
   if (reader.failed()) {
@@ -1150,10 +1157,7 @@ int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> r
   }
   Run run;
   std::vector<Sample> samples;
-  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
-                                : run_calibration<float>(o, reader, diag, run, samples);
-  run.diagnostic_count = static_cast<long>(diag.count());
-  for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
+  const int code = calibrate_from(o, reader, diag, run, samples);
   if (run.samples == 0) {
     out.error = "no samples";
     return 2;

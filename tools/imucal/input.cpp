@@ -753,29 +753,22 @@ bool SampleReader::next_txyz(int which, double& t, double v[3], long& line_no, D
       break;
     }
     double x[4];
-    if (plain_numbers(line, x, 4)) {
-      if (!after_previous(x[0] * time_scale_, have_[which], t_[which], in, 1, diag)) {
+    bool ok = plain_numbers(line, x, 4);  // the common line; else field by field, saying why
+    if (!ok) {
+      split_fields(line, fields_);
+      if (fields_.size() != 4) {
+        report(in, 0,
+               "expected 4 fields (t x y z), found " + std::to_string(fields_.size()) +
+                   ": line skipped",
+               diag);
         ++skipped_;
         continue;
       }
-      t = x[0] * time_scale_;
-      for (int a = 0; a < 3; ++a) v[a] = x[a + 1];
-      line_no = in.line_number();
-      return true;
+      ok = true;
+      static constexpr const char* kNames[4] = {"t", "x", "y", "z"};
+      for (int k = 0; k < 4 && ok; ++k)
+        ok = number_field(in, fields_[static_cast<std::size_t>(k)], kNames[k], x[k], diag);
     }
-    split_fields(line, fields_);
-    if (fields_.size() != 4) {
-      report(
-          in, 0,
-          "expected 4 fields (t x y z), found " + std::to_string(fields_.size()) + ": line skipped",
-          diag);
-      ++skipped_;
-      continue;
-    }
-    bool ok = true;
-    static constexpr const char* kNames[4] = {"t", "x", "y", "z"};
-    for (int k = 0; k < 4 && ok; ++k)
-      ok = number_field(in, fields_[static_cast<std::size_t>(k)], kNames[k], x[k], diag);
     ok = ok && after_previous(x[0] * time_scale_, have_[which], t_[which], in, 1, diag);
     if (!ok) {
       ++skipped_;
