@@ -344,6 +344,21 @@ void round_trip(int seed, bool use_double) {
   EXPECT_GT(r["gyroscope"]["residual_deg"]["move_rms_before"].get<double>(), 0.5);
   EXPECT_EQ(r["poses"].size(), 25u);
   EXPECT_EQ(r["moves"].size(), 24u);
+  // The noise the calibrator measured and weighs with, against the simulator's noise per sample
+  // through the true scales: a sigma from N samples scatters by 1/sqrt(2N), 1 % over the rests'
+  // 7,000 samples, 2 % over the initial rest's 1,000, where the warming board also drifts.
+  auto true_noise = [&](const char* sensor) {
+    const Json& p = t[sensor]["parameters"];
+    return t[sensor]["noise_per_sample"].get<double>() *
+           (p["s_x"].get<double>() + p["s_y"].get<double>() + p["s_z"].get<double>()) / 3;
+  };
+  EXPECT_NEAR(
+      r["accelerometer"]["noise"]["sample_sigma_mps2"].get<double>() / true_noise("accelerometer"),
+      1.0, 0.05);
+  EXPECT_NEAR(r["gyroscope"]["noise"]["sample_sigma_rads"].get<double>() / true_noise("gyroscope"),
+              1.0, 0.10);
+  EXPECT_NEAR(r["accelerometer"]["noise"]["fit_chi2_per_dof"].get<double>(), 1.0, 0.5);
+  EXPECT_NE(summary.find("noise measured in the rests"), std::string::npos);
   // Each pose lies inside a true rest, to two samples: a move's first or last samples, turning
   // slower than the gyro's noise (0.1 deg/s two samples into a move of this simulator against
   // 0.18 deg/s of noise), cannot be told from the rest (test_protocols checks the rate).

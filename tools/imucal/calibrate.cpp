@@ -609,6 +609,36 @@ int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
   return run.usable ? 0 : 1;
 }
 
+// The noise the calibrator measured, in SI units through the calibrated scales (the nominal ones
+// where a sensor was not calibrated): the accelerometer's over the rests (each pose's, weighted
+// by its samples), the gyro's over the initial rest; the accelerometer fit's floor and chi2/dof.
+template <typename Scalar>
+void measured_noise(const Calibrator<Scalar>& cal, const Calibration<Scalar>& c, const Options& o,
+                    Run& run) {
+  const PoseSpan<Scalar> poses = cal.poses();
+  double sum = 0, n = 0;
+  for (int i = 0; i < poses.size; ++i) {
+    if (!(poses[i].noise > Scalar(0))) continue;
+    sum += static_cast<double>(poses[i].noise) * poses[i].samples;
+    n += poses[i].samples;
+  }
+  auto mean_scale = [](const auto& p, int first) {
+    return (static_cast<double>(p(first)) + static_cast<double>(p(first + 1)) +
+            static_cast<double>(p(first + 2))) /
+           3;
+  };
+  const bool accel = succeeded(c.accel.status), gyro = succeeded(c.gyro.status);
+  const double sa = accel ? mean_scale(c.accel.params, kScaleX) : accel_nominal_scale(o);
+  if (n > 0) run.accel_noise = std::sqrt(sum / n) * sa;
+  const double sg = gyro ? mean_scale(c.gyro.params, kGyroScaleX) : gyro_nominal_scale(o);
+  if (run.has_gyro)
+    run.gyro_noise = std::sqrt(static_cast<double>(cal.gyro_noise_variance().sum()) / 3) * sg;
+  if (accel && c.accel.fit_to_noise > Scalar(0)) {
+    run.accel_pose_floor = static_cast<double>(c.accel.pose_floor);
+    run.accel_fit_to_noise = static_cast<double>(c.accel.fit_to_noise);
+  }
+}
+
 template <typename Scalar>
 int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
                     std::vector<Sample>& samples) {
@@ -838,6 +868,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
     run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
     run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
   }
+  measured_noise<Scalar>(*cal, c, o, run);
   // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
   const double sa = accel_nominal_scale(o);
   run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);

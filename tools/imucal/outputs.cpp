@@ -313,6 +313,24 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                    "pose: %s)\n",
                    fmt("%.5f", run.accel_sample_rms_after).c_str(),
                    fmt("%.5f", run.accel_noise_floor).c_str());
+    if (std::isfinite(run.accel_noise)) {
+      std::fprintf(out, "  noise measured in the rests: %s m/s^2 a sample on each axis",
+                   fmt("%.3g", run.accel_noise).c_str());
+      if (std::isfinite(run.rate_hz))
+        std::fprintf(out, " (white noise %s m/s^2/sqrt(Hz))",
+                     fmt("%.3g", run.accel_noise / std::sqrt(run.rate_hz)).c_str());
+      std::fprintf(out, "; the sigmas above come from it\n");
+    }
+    if (std::isfinite(run.accel_fit_to_noise)) {
+      const std::string floor =
+          run.accel_pose_floor > 0
+              ? ", with a floor of " + fmt("%.2g", run.accel_pose_floor) +
+                    " m/s^2 a pose mean (bias instability, warming or sway: a long rest counts "
+                    "no more than that)"
+              : " (no floor: each pose mean is as good as its samples make it)";
+      std::fprintf(out, "  pose means against that noise: chi2/dof %s%s\n",
+                   fmt("%.2f", run.accel_fit_to_noise).c_str(), floor.c_str());
+    }
   }
   const char* gu = gyro_unit_name(o.gyro_unit);
   if (!run.has_gyro) {
@@ -338,6 +356,14 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  "after %s deg%s\n",
                  fmt("%.3f", run.gyro_rms_before).c_str(), fmt("%.3f", run.gyro_rms_after).c_str(),
                  run.have_nominal_gyro ? "" : " (before: give the nominal --gyro-lsb-per-dps)");
+  }
+  if (run.has_gyro && std::isfinite(run.gyro_noise)) {
+    std::fprintf(out, "  noise measured in the initial rest: %s rad/s a sample on each axis",
+                 fmt("%.3g", run.gyro_noise).c_str());
+    if (std::isfinite(run.rate_hz))
+      std::fprintf(out, " (white noise %s rad/s/sqrt(Hz))",
+                   fmt("%.3g", run.gyro_noise / std::sqrt(run.rate_hz)).c_str());
+    std::fprintf(out, "\n");
   }
   print_mag_summary(run, o, out);
   print_temperature_summary(run, o, out);
@@ -601,6 +627,9 @@ std::string run_json(const Run& run, const Options& o) {
                             {"pose_rms_after", number(run.accel_pose_rms_after)},
                             {"sample_rms_after", number(run.accel_sample_rms_after)},
                             {"sample_noise_floor", number(run.accel_noise_floor)}};
+  accel["noise"] = {{"sample_sigma_mps2", number(run.accel_noise)},
+                    {"pose_floor_mps2", number(run.accel_pose_floor)},
+                    {"fit_chi2_per_dof", number(run.accel_fit_to_noise)}};
   j["accelerometer"] = accel;
   Json gyro;
   gyro["model"] = kGyroModel;
@@ -612,6 +641,7 @@ std::string run_json(const Run& run, const Options& o) {
   if (run.gyro_ok) gyro["parameters"] = params(kGyroNames, run.gyro_params, run.gyro_sigma, 12);
   gyro["residual_deg"] = {{"move_rms_before", number(run.gyro_rms_before)},
                           {"move_rms_after", number(run.gyro_rms_after)}};
+  gyro["noise"] = {{"sample_sigma_rads", number(run.gyro_noise)}};
   j["gyroscope"] = gyro;
   j["magnetometer"] = mag_json(run, o);
   j["temperature"] = temperature_json(run, o);

@@ -183,6 +183,10 @@ struct Run {
   std::array<double, 9> accel_nominal{};  // T = I, s and b from the units (if known)
   double accel_pose_rms_before = kNaN, accel_pose_rms_after = kNaN;  // m/s^2
   double accel_sample_rms_after = kNaN, accel_noise_floor = kNaN;    // m/s^2, pose windows
+  // The noise the calibrator measured and weighs with (one sample, one axis, SI units): the
+  // accelerometer's in its rests, the gyro's in the initial rest; the pose means' floor beyond
+  // the accelerometer's noise (m/s^2) and the fit's chi-square per degree of freedom under it.
+  double accel_noise = kNaN, gyro_noise = kNaN, accel_pose_floor = kNaN, accel_fit_to_noise = kNaN;
   // Gyroscope: [g_yz, g_zy, g_zx, g_xz, g_xy, g_yx, s_x, s_y, s_z, b_x, b_y, b_z], b added.
   std::string gyro_status;
   bool gyro_ok = false;
