@@ -1,6 +1,7 @@
 // The calibration record's encoder and validating decoder (format: include/imucal/record.hpp).
 #include "imucal/record.hpp"
 
+#include <Eigen/LU>  // determinant()
 #include <cmath>
 #include <cstring>
 

@@ -8,14 +8,12 @@
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"
+#include "imucal/calibration.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "imucal/pose_store.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {
-
-// Fewest poses accepted: one more than the parameters, so that every parameter gets a sigma.
-constexpr int kAccelMinPoses = kAccelParams + 1;
 
 template <typename Scalar>
 struct AccelSettings {
@@ -64,25 +62,7 @@ struct AccelSettings {
 // by (chi2 + 8) / (dof + 8): the model where the fit has few degrees of freedom, the fit's scatter
 // where it has many. Without the noise, poses are weighted by sample count and sigma is scaled
 // by the fit's scatter alone.
-template <typename Scalar>
-struct AccelCalibration {
-  AccelVector<Scalar> params =
-      AccelVector<Scalar>::Zero();  // seed order, sensor units in, m/s^2 out
-  AccelVector<Scalar> sigma = AccelVector<Scalar>::Zero();  // one standard deviation each
-  Scalar residual_rms = Scalar(0);  // m/s^2: sample-weighted RMS of |g| - |a_cal| over poses
-  // Noise of one pose mean beyond what the rests' scatter explains (m/s^2, each axis): 0 when
-  // the model explains the fit, or without the pose noise.
-  Scalar pose_floor = Scalar(0);
-  // chi2 / dof of the fit under the noise model (1 when the model is right; 0 without it).
-  Scalar fit_to_noise = Scalar(0);
-  // Bit k for parameter k (AccelIndex): weak (sigma above weak_normalised_sigma), or held at its
-  // nominal value because the poses do not determine it (sigma 0 then).
-  std::uint16_t weak = 0;
-  std::uint16_t held = 0;
-  int poses = 0;
-  int iterations = 0;
-  Status status = Status::kNotStarted;
-};
+// (AccelCalibration, in calibration.hpp, carries the result.)
 
 // Parameter k (AccelIndex) by name ("alpha_yz" .. "bias_z"), and the orientations that pin it
 // down, in words, for a weak or held one.

@@ -40,6 +40,7 @@
 #include <type_traits>
 
 #include "imucal/accel_calibration.hpp"
+#include "imucal/calibration.hpp"
 #include "imucal/compensated_sum.hpp"
 #include "imucal/gyro_calibration.hpp"
 #include "imucal/gyro_segment.hpp"
@@ -170,16 +171,6 @@ struct Progress {
   int coarsenings = 0;    // times the segment store was merged pairwise
   std::uint32_t samples_refused = 0;
   StreamCounts stream{};  // bad samples and stream events, each by kind
-};
-
-template <typename Scalar>
-struct Calibration {
-  AccelCalibration<Scalar> accel{};
-  GyroCalibration<Scalar> gyro{};
-  Quality quality = Quality::kNone;
-  Scalar sample_rate_hz = Scalar(0);  // measured over the initial rest
-  bool has_temperature = false;       // the samples carried a temperature
-  Scalar temperature_c = Scalar(0);   // if so, its mean over the samples taken (deg C)
 };
 
 // The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, one partial coarsening of

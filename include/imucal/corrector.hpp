@@ -34,7 +34,7 @@
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"
-#include "imucal/calibrator.hpp"
+#include "imucal/calibration.hpp"
 #include "imucal/gyro_model.hpp"
 #include "imucal/mag_model.hpp"
 #include "imucal/plausibility.hpp"

@@ -21,6 +21,7 @@
 #include <climits>
 #include <cmath>
 
+#include "imucal/calibration.hpp"
 #include "imucal/gyro_model.hpp"
 #include "imucal/gyro_segment.hpp"
 #include "imucal/levenberg_marquardt.hpp"
@@ -226,20 +227,6 @@ struct GyroSettings {
     if (sizeof(Scalar) < 8) s.cost_tolerance = Scalar(1e-5);
     return s;
   }
-};
-
-template <typename Scalar>
-struct GyroCalibration {
-  // imu_tk layout, then the ADDED bias (absolute, sensor units): w_cal = T K (w_raw + b).
-  GyroVector<Scalar> params = GyroVector<Scalar>::Zero();
-  // The bias's sigma: from the LM when refined; otherwise the initial rest's (filled in by the
-  // Calibrator; zero from GyroSolver alone, which does not see the rest).
-  GyroVector<Scalar> sigma = GyroVector<Scalar>::Zero();
-  Scalar residual_rms = Scalar(0);  // rad: RMS over moves of the sine of the gravity angle error
-  int moves = 0;
-  int iterations = 0;
-  bool bias_refined = false;
-  Status status = Status::kNotStarted;
 };
 
 // A gyro parameter's sigma in comparable units: misalignment in rad, scale relative to itself,

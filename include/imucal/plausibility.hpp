@@ -21,6 +21,7 @@
 // Header-only, templated on the scalar; never allocates.
 #pragma once
 
+#include <Eigen/LU>  // determinant()
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"

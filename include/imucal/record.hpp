@@ -49,9 +49,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "imucal/accel_calibration.hpp"
-#include "imucal/calibrator.hpp"
-#include "imucal/gyro_calibration.hpp"
+#include "imucal/calibration.hpp"
 #include "imucal/mag_model.hpp"
 #include "imucal/plausibility.hpp"
 #include "imucal/status.hpp"
