@@ -327,6 +327,9 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
               ? ", with a floor of " + fmt("%.2g", run.accel_pose_floor) +
                     " m/s^2 a pose mean (bias instability, warming or sway: a long rest counts "
                     "no more than that)"
+          : run.accel_fit_to_noise > 2
+              ? " (the pose means scatter more than the rests' noise explains, e.g. a drift "
+                "between poses; too few poses to fit a floor, the sigmas are widened to match)"
               : " (no floor: each pose mean is as good as its samples make it)";
       std::fprintf(out, "  pose means against that noise: chi2/dof %s%s\n",
                    fmt("%.2f", run.accel_fit_to_noise).c_str(), floor.c_str());
