@@ -706,6 +706,38 @@ TEST(CliInput, ImuTkFilesFromDiskReadAsFromMemory) {
   std::remove(g.c_str());
 }
 
+// A line of about the longest length, ended by LF, CRLF, a CR at the end of the input or nothing:
+// read from a stream in blocks of any size as from memory (a line of the longest length and its
+// CR at the end of the input was skipped from a stream as too long: the fuzzer's find).
+TEST(CliInput, LinesAtTheLengthLimitReadTheSameFromAStream) {
+  constexpr std::size_t kLine = 40;
+  int compared = 0;
+  for (std::size_t len = kLine - 2; len <= kLine + 2; ++len) {
+    for (const char* end : {"", "\r", "\n", "\r\n", "\r\r\n", "\n0.5 1 2 3\r"}) {
+      std::string text = "0.1 1 2 " + std::string(len - 8, '3') + end;
+      for (std::size_t block : {1u, 2u, 7u, 40u, 64u}) {
+        std::FILE* f = fmemopen(text.data(), text.size(), "r");
+        ASSERT_NE(f, nullptr);
+        LineReader stream, memory;
+        Diagnostics ds, dm;
+        stream.open_stream(f, "s", kLine, block);
+        memory.open_memory(text, "m", kLine);
+        std::string_view ls, lm;
+        for (;;) {
+          const bool a = stream.next(ls, ds), b = memory.next(lm, dm);
+          ASSERT_EQ(a, b) << len << " " << block;
+          if (!a) break;
+          EXPECT_EQ(ls, lm) << len << " " << block;
+        }
+        EXPECT_EQ(ds.count(), dm.count()) << len << " '" << end << "' block " << block;
+        std::fclose(f);
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 5 * 6 * 5);
+}
+
 TEST(CliInput, SettingsAfterTheHeaderAreReportedNotSilentlyIgnored) {
   const Read r = read_texts({"t,ax,ay,az,gx,gy,gz\n0,1,2,3,4,5,6\n# imucal: time-unit=us\n"});
   ASSERT_EQ(r.records.size(), 1u);

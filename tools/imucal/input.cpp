@@ -55,7 +55,8 @@ void LineReader::open_stream(std::FILE* f, const std::string& name, std::size_t 
   file_ = f;
   name_ = name;
   max_line_ = max_line;
-  buf_.resize(max_line + block);
+  // Room for a line of max_line and its CR, and one byte more to see what follows them.
+  buf_.resize(max_line + std::max<std::size_t>(block, 2));
 }
 
 void LineReader::open_memory(std::string_view text, const std::string& name, std::size_t max_line) {
@@ -92,7 +93,8 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
     const std::size_t nl = rest.find('\n');
     const bool complete = nl != std::string_view::npos;
     // An incomplete line that may still fit: read more, then look again (fill() moves the bytes).
-    if (!complete && !from_memory_ && !eof_ && rest.size() <= max_line_) {
+    // max_line + 1: its last byte may be a CR, which ends the line at the end of the input.
+    if (!complete && !from_memory_ && !eof_ && rest.size() <= max_line_ + 1) {
       fill();
       continue;
     }
