@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "imucal/accel_model.hpp"
@@ -260,9 +261,17 @@ inline Matrix3<double> turn_to(const Vector3<double>& up, const Vector3<double>&
 // Builds the sample stream phase by phase; keeps the current time and attitude.
 class MotionBuilder {
  public:
+  // sink: if set, each sample goes to it instead of into rec.samples (a long recording in little
+  // memory); rec.rests are counted either way.
   MotionBuilder(const MotionPlan& plan, const AccelSensorSpec& acc_spec,
-                const GyroSensorSpec& gyro_spec, Random& rng, Recording& rec)
-      : plan_(plan), acc_spec_(acc_spec), gyro_spec_(gyro_spec), rng_(rng), rec_(rec) {}
+                const GyroSensorSpec& gyro_spec, Random& rng, Recording& rec,
+                const std::function<void(const MotionSample&)>* sink = nullptr)
+      : plan_(plan),
+        acc_spec_(acc_spec),
+        gyro_spec_(gyro_spec),
+        rng_(rng),
+        rec_(rec),
+        sink_(sink) {}
 
   // Sample 0 at t = 0, at rest with attitude r0.
   void start(const Matrix3<double>& r0) {
@@ -456,6 +465,17 @@ class MotionBuilder {
     if (plan_.accel_drift != 0.0)
       s.acc += Vector3<double>::Constant(accel_offset(plan_, t_) / std::sqrt(3.0));
     s.gyro = raw_gyro_from_rate(rec_.gyro, w) + noise(gyro_spec_.noise);
+    // The maximal runs of still samples, in order.
+    if (still) {
+      if (!last_still_) rec_.rests.push_back({count_, count_});
+      rec_.rests.back().end = count_ + 1;
+    }
+    last_still_ = still;
+    ++count_;
+    if (sink_ != nullptr && *sink_) {
+      (*sink_)(s);
+      return;
+    }
     rec_.samples.push_back(s);
     if (plan_.record_attitude) rec_.attitude.push_back(r_);
   }
@@ -469,27 +489,22 @@ class MotionBuilder {
   const GyroSensorSpec& gyro_spec_;
   Random& rng_;
   Recording& rec_;
+  const std::function<void(const MotionSample&)>* sink_;
+  std::size_t count_ = 0;  // samples pushed
+  bool last_still_ = false;
   Matrix3<double> r_ = Matrix3<double>::Identity();
   double t_ = 0.0;
 };
-
-// The maximal runs of still samples, in order.
-inline std::vector<StillInterval> still_runs(const std::vector<MotionSample>& samples) {
-  std::vector<StillInterval> runs;
-  for (std::size_t k = 0; k < samples.size(); ++k) {
-    if (!samples[k].still) continue;
-    if (k == 0 || !samples[k - 1].still) runs.push_back({k, k});
-    runs.back().end = k + 1;
-  }
-  return runs;
-}
 
 }  // namespace detail
 
 // Draws the accelerometer and gyroscope truth, a random initial attitude, and the whole stream:
 // initial rest, then plan.poses times (move, rest). Deterministic for a given rng state.
+// With a sink, every sample goes to it as it is made and rec.samples stays empty (rec.rests still
+// index the samples in the order the sink saw them).
 inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& acc_spec,
-                                 const GyroSensorSpec& gyro_spec, Random& rng) {
+                                 const GyroSensorSpec& gyro_spec, Random& rng,
+                                 const std::function<void(const MotionSample&)>& sink = {}) {
   Recording rec;
   rec.acc = draw_accel_truth(acc_spec, rng, plan.gravity);
   rec.gyro = draw_gyro_truth(gyro_spec, rng);
@@ -500,7 +515,7 @@ inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& 
       poses * 0.5 * (plan.rest_min_s + plan.rest_max_s + plan.move_min_s + plan.move_max_s) +
       std::max(plan.bump_s, 0.0);
   const double estimate = 1.25 * seconds * plan.rate_hz + 64.0;
-  if (estimate > 0.0 && estimate < 1e8) {
+  if (estimate > 0.0 && estimate < 1e8 && !sink) {
     rec.samples.reserve(static_cast<std::size_t>(estimate));
     if (plan.record_attitude) rec.attitude.reserve(static_cast<std::size_t>(estimate));
   }
@@ -508,7 +523,7 @@ inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& 
   // Net move angles stay clear of pi, where the rotation vector (and so the move) is ambiguous.
   const double max_angle = std::clamp(plan.move_angle_max, 1e-3, detail::kPi - 0.05);
   const double min_angle = std::clamp(plan.move_angle_min, 1e-3, max_angle);
-  detail::MotionBuilder builder(plan, acc_spec, gyro_spec, rng, rec);
+  detail::MotionBuilder builder(plan, acc_spec, gyro_spec, rng, rec, &sink);
   detail::TargetPlanner planner(max_angle);
   builder.start(random_rotation(rng));
   builder.rest(plan.initial_rest_s, plan.hand_initial_rest);
@@ -529,7 +544,6 @@ inline Recording simulate_motion(const MotionPlan& plan, const AccelSensorSpec& 
     }
     planner.record_rest(builder.up());
   }
-  rec.rests = detail::still_runs(rec.samples);
   return rec;
 }
 
