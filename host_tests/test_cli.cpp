@@ -359,6 +359,13 @@ void round_trip(int seed, bool use_double) {
               1.0, 0.10);
   EXPECT_NEAR(r["accelerometer"]["noise"]["fit_chi2_per_dof"].get<double>(), 1.0, 0.5);
   EXPECT_NE(summary.find("noise measured in the rests"), std::string::npos);
+  // The quality says which check set it.
+  const std::string reason = r["quality_reason"].get<std::string>();
+  if (r["quality"] == "good")
+    EXPECT_EQ(reason, "every check passed");
+  else
+    EXPECT_FALSE(reason.empty());
+  EXPECT_NE(summary.find("; " + reason), std::string::npos);
   // Each pose lies inside a true rest, to two samples: a move's first or last samples, turning
   // slower than the gyro's noise (0.1 deg/s two samples into a move of this simulator against
   // 0.18 deg/s of noise), cannot be told from the rest (test_protocols checks the rate).

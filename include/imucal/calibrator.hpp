@@ -392,6 +392,12 @@ class Calibrator {
     return true;
   }
   const CalibratorSettings<Scalar>& settings() const { return settings_; }
+  // Why the calibration's quality is what it is (static text; after a solve).
+  const char* quality_reason() const {
+    const char* why = "";
+    quality(&why);
+    return why;
+  }
   // The latest pose (progress().poses counts them) as a rest: mean raw readings, temperature,
   // length. Feed it to a TemperatureFit (temperature_fit.hpp) for a bias-vs-temperature model.
   const RestSummary<Scalar>& last_rest() const { return last_rest_; }
@@ -1320,11 +1326,18 @@ class Calibrator {
   // Good: both calibrated, all six faces, pose residuals within 3x what the noise explains, every
   // sigma within a quarter of its bound. Fair: both calibrated. Poor: the accelerometer only.
   // Without a gyro (has_gyro false) the accelerometer's part of the same rule decides.
-  Quality quality() const {
+  // The quality and, in *why (static text), the check that set it.
+  Quality quality(const char** why = nullptr) const {
+    const char* unused = nullptr;
+    const char*& reason = why != nullptr ? *why : unused;
+    reason = "the accelerometer was not calibrated";
     if (!succeeded(calibration_.accel.status)) return Quality::kNone;
+    reason = "the gyroscope was not calibrated";
     if (settings_.has_gyro && !succeeded(calibration_.gyro.status)) return Quality::kPoor;
+    reason = "not every face was up in a pose";
     if (faces() != 0x3f) return Quality::kFair;
     // A parameter held at 0 or barely determined (named in the calibration, with the hint).
+    reason = "an accelerometer parameter is held at 0 or weak";
     if (calibration_.accel.held != 0 || calibration_.accel.weak != 0) return Quality::kFair;
     // Noise of a pose mean in m/s^2: the per-sample noise (initial rest) over sqrt(samples).
     const AccelVector<Scalar>& p = calibration_.accel.params;
@@ -1334,12 +1347,18 @@ class Calibrator {
     for (int k = 0; k < poses_.size(); ++k) mean_n += static_cast<Scalar>(poses_[k].samples);
     mean_n /= static_cast<Scalar>(poses_.size());
     const Scalar expected = sd.norm() / std::sqrt(Scalar(3) * mean_n);
+    reason =
+        "the pose residual is over 3 times the noise of a pose mean (drift between poses, or "
+        "rests that were not still)";
     if (calibration_.accel.residual_rms > Scalar(3) * expected) return Quality::kFair;
+    reason = "every check passed";
     if (!settings_.has_gyro) return Quality::kGood;
     const GyroCalibration<Scalar>& g = calibration_.gyro;
     const Scalar quarter = settings_.gyro.max_normalised_sigma / Scalar(4);
+    reason = "a gyroscope misalignment or scale has a sigma over a quarter of its bound";
     for (int k = 0; k < kGyroMatrixParams; ++k)
       if (!(gyro_normalised_sigma<Scalar>(g.params, g.sigma, k) <= quarter)) return Quality::kFair;
+    reason = "every check passed";
     return Quality::kGood;
   }
 

@@ -848,6 +848,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   run.gyro_bias_refined = c.gyro.bias_refined;
   run.quality = quality_name(c.quality);
   run.quality_level = static_cast<int>(c.quality);
+  run.quality_reason = cal->quality_reason();
   if (!run.has_gyro) run.gyro_status = "not in the input";
   run.usable = run.accel_ok && (run.gyro_ok || !run.has_gyro);
   advise(before_solve, p, o, run);

@@ -374,8 +374,9 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
     std::fprintf(out, "\n%s\n", run.usable ? "to do better" : "why, and what to do");
     for (const std::string& a : run.advice) std::fprintf(out, "  - %s\n", a.c_str());
   }
-  std::fprintf(out, "\nquality  %s: %s\n", run.quality.c_str(),
-               run.usable ? "usable" : "NOT usable (see the statuses above)");
+  std::fprintf(out, "\nquality  %s: %s%s\n", run.quality.c_str(),
+               run.usable ? "usable" : "NOT usable (see the statuses above)",
+               run.quality_reason.empty() ? "" : ("; " + run.quality_reason).c_str());
 }
 
 namespace {
@@ -649,6 +650,7 @@ std::string run_json(const Run& run, const Options& o) {
   j["magnetometer"] = mag_json(run, o);
   j["temperature"] = temperature_json(run, o);
   j["quality"] = run.quality;
+  j["quality_reason"] = run.quality_reason;
   j["usable"] = run.usable;
   j["advice"] = run.advice;
 

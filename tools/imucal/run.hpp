@@ -197,7 +197,8 @@ struct Run {
   std::array<double, 12> gyro_nominal{};  // T = I, s from the units, b from the initial rest
   double gyro_rms_before = kNaN, gyro_rms_after = kNaN;  // deg per move
   std::string quality;                                   // none, poor, fair, good
-  int quality_level = 0;  // the same as a number: 0 none, 1 poor, 2 fair, 3 good
+  std::string quality_reason;  // the check that set it (streaming runs; empty otherwise)
+  int quality_level = 0;       // the same as a number: 0 none, 1 poor, 2 fair, 3 good
   // What the input holds is calibrated: both sensors (quality fair or good), the accelerometer
   // of an accelerometer-only input, the magnetometer of a magnetometer-only one.
   bool usable = false;
