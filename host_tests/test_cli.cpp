@@ -1071,7 +1071,7 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
     }
 }
 
-// ---- Issue 6: magnetometer and temperature through the command ----
+// ---- Magnetometer and temperature through the command ----
 
 // A recording as `imucal simulate` makes it (counts, 24 poses), with a magnetometer (its truth
 // from mag_sim.hpp, read at the true attitude of each sample) and a temperature ramp that moves

@@ -208,8 +208,8 @@ TEST(Record, MagnetometerAndTemperatureRoundTrip) {
   EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro);
 }
 
-// Every part as first written (issue 6, 2026-11-22): the magnetometer and temperature
-// sections are pinned like version 1's.
+// Every part, as first written: the magnetometer and temperature sections are pinned like
+// version 1's.
 constexpr std::uint8_t kEveryPart[] = {
 #include "support/record_full_bytes.inc"
 };

