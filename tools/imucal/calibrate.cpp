@@ -1172,21 +1172,27 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   return code;
 }
 
+bool open_arrays(const std::vector<std::string>& args, std::vector<Record> records,
+                 const std::string& columns, Options& o, SampleReader& reader, Diagnostics& diag,
+                 std::string& error) {
+  std::vector<std::string> all = args;
+  all.push_back("<arrays>");  // the input's name in messages
+  if (!parse_calibrate_options(all, o, error)) return false;
+  if (reader.open_records(std::move(records), columns, diag)) return true;
+  error = diag.kept().empty() ? "the columns cannot be read" : diag.kept()[0].message;
+  return false;
+}
+
 int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
                      const std::string& columns, MemoryRun& out) {
   Options o;
-  std::vector<std::string> all = args;
-  all.push_back("<arrays>");
-  if (!parse_calibrate_options(all, o, out.error)) return 2;
-  o.quiet = true;
-  if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
   Diagnostics diag;
   SampleReader reader;
-  if (!reader.open_records(std::move(records), columns, diag) ||
-      !settle_options(reader, o, out.error)) {
-    if (out.error.empty() && !diag.kept().empty()) out.error = diag.kept()[0].message;
+  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error) ||
+      !settle_options(reader, o, out.error))
     return 2;
-  }
+  o.quiet = true;
+  if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
   Run run;
   std::vector<Sample> samples;
   const int code = calibrate_from(o, reader, diag, run, samples);
@@ -1194,14 +1200,7 @@ int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> r
     out.error = "no samples";
     return 2;
   }
-  char* text = nullptr;
-  std::size_t size = 0;
-  if (std::FILE* f = open_memstream(&text, &size)) {
-    print_summary(run, o, f);
-    std::fclose(f);
-    out.summary.assign(text, size);
-    std::free(text);
-  }
+  out.summary = printed([&](std::FILE* f) { print_summary(run, o, f); });
   out.json = run_json(run, o);
   if (run.usable && run.record_error.empty()) out.record = run.record;
   return code;

@@ -41,6 +41,11 @@ struct MemoryRun {
 };
 int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
                      const std::string& columns, MemoryRun& out);
+// The options (`args`, the input named <arrays>) and the reader over `records`, for the memory
+// runs. False with the reason.
+bool open_arrays(const std::vector<std::string>& args, std::vector<Record> records,
+                 const std::string& columns, Options& o, SampleReader& reader, Diagnostics& diag,
+                 std::string& error);
 
 // `imucal noise` over samples in memory: its summary, --json, --kalibr and (with --svg) page.
 struct NoiseRun {

@@ -440,18 +440,13 @@ bool SampleReader::next_record(Record& r, Diagnostics& diag) {
     if (col_t_ >= 0) {
       r.t *= time_scale_;
       if (have_last_ && !(r.t > last_t_)) {
-        char msg[160];
-        std::snprintf(msg, sizeof msg, "time %.9g s is not after the previous sample's %.9g s", r.t,
-                      last_t_);
-        say(msg);
+        say(time_not_after(r.t, last_t_));
         continue;
       }
     } else {
-      r.t = rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
+      r.t = untimed_time();
     }
-    have_last_ = true;
-    last_t_ = r.t;
-    ++index_;
+    taken(r.t);
     return true;
   }
   return false;
@@ -649,11 +644,25 @@ bool SampleReader::number_field(const LineReader& in, const Field& f, const char
 bool SampleReader::after_previous(double t, bool have, double previous, const LineReader& in,
                                   long column, Diagnostics& diag) {
   if (!have || t > previous) return true;
-  char msg[160];
-  std::snprintf(msg, sizeof msg,
-                "time %.9g s is not after the previous sample's %.9g s: line skipped", t, previous);
-  report(in, column, msg, diag);
+  report(in, column, time_not_after(t, previous) + ": line skipped", diag);
   return false;
+}
+
+std::string SampleReader::time_not_after(double t, double previous) {
+  char msg[120];
+  std::snprintf(msg, sizeof msg, "time %.9g s is not after the previous sample's %.9g s", t,
+                previous);
+  return msg;
+}
+
+double SampleReader::untimed_time() const {
+  return rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
+}
+
+void SampleReader::taken(double t) {
+  have_last_ = true;
+  last_t_ = t;
+  ++index_;
 }
 
 bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
@@ -730,12 +739,10 @@ bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
       }
     } else {
       // No time column: the good samples are evenly spaced at the rate given.
-      r.t = rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
+      r.t = untimed_time();
     }
     if (ok) {
-      have_last_ = true;
-      last_t_ = r.t;
-      ++index_;
+      taken(r.t);
       return true;
     }
     ++skipped_;

@@ -192,6 +192,9 @@ class SampleReader {
   bool after_previous(double t, bool have, double previous, const LineReader& in, long column,
                       Diagnostics& diag);
   void report(const LineReader& in, long column, std::string message, Diagnostics& diag);
+  static std::string time_not_after(double t, double previous);
+  double untimed_time() const;  // a sample's time without a t column: index / rate
+  void taken(double t);         // a good sample: the next must come after t
 
   LineReader in_[2];
   int files_ = 0;

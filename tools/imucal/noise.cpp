@@ -363,7 +363,8 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
                            : std::isfinite(o.accel_lsb_per_g) ? kStandardGravity / o.accel_lsb_per_g
                                                               : 1.0;
   const bool acc_si = o.accel_unit != AccelUnit::kCounts || std::isfinite(o.accel_lsb_per_g);
-  if (!o.kalibr_path.empty() && ((has_gyro && !gyro_si) || (has_acc && !acc_si))) {
+  const bool si = !(has_gyro && !gyro_si) && !(has_acc && !acc_si);  // every sensor present
+  if (!o.kalibr_path.empty() && !si) {
     result.error = format_text(
         "--kalibr needs SI units: with counts give --gyro-lsb-per-dps "
         "and --accel-lsb-per-g (from the data sheet)");
@@ -436,31 +437,23 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     kalibr_numbers(sn);
   }
 
-  char* text = nullptr;
-  std::size_t size = 0;
-  std::FILE* out = open_memstream(&text, &size);
-  if (out == nullptr) {
-    result.error = "out of memory";
-    return 2;
-  }
-  std::fprintf(out,
-               "imucal noise: %s\n  %ld samples over %.1f s at %.3f Hz, taken as one still "
-               "recording\n",
-               o.files[0].c_str(), n, duration, 1.0 / dt);
-  if (gaps > 0 || reader.lines_skipped() > 0) {
+  result.summary = printed([&](std::FILE* out) {
     std::fprintf(out,
-                 "  warning: %ld interval(s) over 1.5 x the mean (longest %.3g s), %ld line(s) "
-                 "skipped: the Allan deviation assumes a constant rate\n",
-                 gaps, worst, reader.lines_skipped());
-  }
-  std::fprintf(out,
-               "  AVAR(tau) = 3 Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3, fitted "
-               "(weighted, non-negative); +- one sigma, ns: not significant\n");
-  for (int s = 0; s < 2; ++s)
-    if (present[s]) print_sensor(sensors[s], out);
-  std::fclose(out);
-  result.summary.assign(text, size);
-  std::free(text);
+                 "imucal noise: %s\n  %ld samples over %.1f s at %.3f Hz, taken as one still "
+                 "recording\n",
+                 o.files[0].c_str(), n, duration, 1.0 / dt);
+    if (gaps > 0 || reader.lines_skipped() > 0) {
+      std::fprintf(out,
+                   "  warning: %ld interval(s) over 1.5 x the mean (longest %.3g s), %ld line(s) "
+                   "skipped: the Allan deviation assumes a constant rate\n",
+                   gaps, worst, reader.lines_skipped());
+    }
+    std::fprintf(out,
+                 "  AVAR(tau) = 3 Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3, fitted "
+                 "(weighted, non-negative); +- one sigma, ns: not significant\n");
+    for (int s = 0; s < 2; ++s)
+      if (present[s]) print_sensor(sensors[s], out);
+  });
 
   {
     Json j;
@@ -475,7 +468,7 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
       if (present[s]) j[sensors[s].key] = sensor_json(sensors[s]);
     result.json = j.dump(2) + "\n";
   }
-  if (!(has_gyro && !gyro_si) && !(has_acc && !acc_si))
+  if (si)
     result.kalibr = kalibr_yaml(has_gyro ? &sensors[0] : nullptr, has_acc ? &sensors[1] : nullptr,
                                 1.0 / dt, o.files[0], n, duration);
   if (!o.svg_path.empty()) result.svg = noise_svg(sensors, present, o.files[0]);
@@ -525,15 +518,9 @@ int noise_command(const std::vector<std::string>& args) {
 int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
                  const std::string& columns, NoiseRun& out) {
   Options o;
-  std::vector<std::string> all = args;
-  all.push_back("<arrays>");
-  if (!parse_calibrate_options(all, o, out.error)) return 2;
   Diagnostics diag;
   SampleReader reader;
-  if (!reader.open_records(std::move(records), columns, diag)) {
-    out.error = diag.kept().empty() ? "the columns cannot be read" : diag.kept()[0].message;
-    return 2;
-  }
+  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error)) return 2;
   const int code = noise_from(o, reader, diag, out);
   for (const Diagnostic& d : diag.kept()) out.diagnostics.push_back(d.text());
   return code;

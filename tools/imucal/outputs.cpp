@@ -11,8 +11,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdarg>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <new>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <utility>
@@ -401,6 +403,18 @@ int write_all(int fd, const std::string& text) {
 }
 
 }  // namespace
+
+std::string printed(const std::function<void(std::FILE*)>& print) {
+  char* text = nullptr;
+  std::size_t size = 0;
+  std::FILE* f = open_memstream(&text, &size);
+  if (f == nullptr) throw std::bad_alloc();  // the command reports it (exit 2)
+  print(f);
+  std::fclose(f);
+  std::string s(text, size);
+  std::free(text);
+  return s;
+}
 
 std::string format_text(const char* format, ...) {
   char buf[1024];

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdio>
+#include <functional>
 #include <string>
 
 #include "run.hpp"
@@ -20,6 +21,8 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
 // it, then renamed); a device or a pipe is written in place; a directory is refused. False
 // (the reason on stderr) if it cannot be written.
 bool write_text_file(const std::string& path, const std::string& text);
+// What `print` writes to a stream, as a string (a summary kept rather than printed).
+std::string printed(const std::function<void(std::FILE*)>& print);
 // printf into a string (at most 1023 characters).
 std::string format_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
 
