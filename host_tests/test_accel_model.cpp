@@ -1,4 +1,5 @@
-// The seed's analytic Jacobian of e = |g|^2 - |T K (a + b)|^2 against central differences.
+// The seed's analytic Jacobian of e = |g|^2 - |T K (a + b)|^2, and that of the calibrated gravity
+// direction, against central differences.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -77,6 +78,44 @@ TEST(AccelJacobian, AlphaYzSignIsPlusTwoCxUy) {
   EXPECT_NEAR(j(kAlphaYz), 2 * c(0) * uy, 1e-12 * std::abs(numeric));
   EXPECT_NEAR(numeric, 2 * c(0) * uy, 1e-7 * std::abs(numeric));
   EXPECT_GT(std::abs(numeric - (-2 * c(0) * uy)), 1.0);  // the literal reading is wrong
+}
+
+// The calibrated gravity direction's Jacobian (what carries the accelerometer's uncertainty into
+// the gyro's sigma) against central differences of the normalised calibrated reading, in SI
+// units and raw counts.
+void expect_direction_jacobian_matches(const sim::AccelSensorSpec& spec, std::uint64_t seed) {
+  sim::Random rng(seed);
+  for (int trial = 0; trial < 100; ++trial) {
+    const sim::AccelTruth t = sim::draw_accel_truth(spec, rng);
+    const Vector3<double> a = sim::raw_from_calibrated(t, 9.8 * sim::random_direction(rng));
+    const AccelVector<double>& p = t.params;
+    const AccelDirectionJacobian<double> analytic = accel_direction_jacobian(p, a);
+    for (int k = 0; k < kAccelParams; ++k) {
+      // Small steps: the direction is not quadratic in a parameter. 1e-5 of a misalignment, of a
+      // scale, and of gravity for a bias, in sensor units.
+      const double h = k < kScaleX  ? 1e-5
+                       : k < kBiasX ? 1e-5 * std::abs(p(k))
+                                    : 1e-4 / std::abs(p(k - 3));
+      AccelVector<double> hi = p, lo = p;
+      hi(k) += h;
+      lo(k) -= h;
+      const Vector3<double> numeric =
+          (accel_apply(hi, a).normalized() - accel_apply(lo, a).normalized()) / (2 * h);
+      const double size = std::max(numeric.norm(), 1e-12);
+      EXPECT_LT((analytic.col(k) - numeric).norm() / size, 1e-6)
+          << "parameter " << k << " trial " << trial;
+      // Perpendicular to the direction: a unit vector moves only sideways.
+      EXPECT_LT(std::abs(accel_apply(p, a).normalized().dot(analytic.col(k))), 1e-9 * size + 1e-15);
+    }
+  }
+}
+
+TEST(AccelDirectionJacobian, MatchesCentralDifferencesSiUnits) {
+  expect_direction_jacobian_matches(sim::AccelSensorSpec::si(), 13);
+}
+
+TEST(AccelDirectionJacobian, MatchesCentralDifferencesRawCounts) {
+  expect_direction_jacobian_matches(sim::AccelSensorSpec::raw_counts(), 14);
 }
 
 TEST(AccelModel, ResidualIsGravityNormError) {

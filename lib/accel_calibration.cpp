@@ -205,6 +205,22 @@ int AccelSolver<Scalar>::dof() const {
   return problem_.poses.size - (kAccelParams - held);
 }
 
+// The variance factor of sigma at p. Under the noise model with a floor, the floor is itself
+// estimated from the dof residuals (chi2 = dof by construction), so a parameter's error over its
+// sigma follows Student's t with dof degrees of freedom, whose variance is dof / (dof - 2): sigma's
+// variance is widened by that much times the floor's share of the residuals' variance (1 + f 2 /
+// (dof - 2)), which makes error / sigma have unit variance where the floor dominates.
+template <typename Scalar>
+Scalar AccelSolver<Scalar>::sigma_factor(const AccelVector<Scalar>& p) const {
+  const int m = dof();
+  const Scalar factor = sigma_variance(problem_.noise_model, chi2(p), m);
+  if (!(problem_.floor > Scalar(0)) || m <= 2 || problem_.poses.size == 0) return factor;
+  Scalar share = Scalar(0);
+  for (int i = 0; i < problem_.poses.size; ++i) share += problem_.floor * problem_.weight(i);
+  share /= static_cast<Scalar>(problem_.poses.size);
+  return factor * (Scalar(1) + share * Scalar(2) / static_cast<Scalar>(m - 2));
+}
+
 template <typename Scalar>
 Scalar AccelSolver<Scalar>::chi2(const AccelVector<Scalar>& p) const {
   Scalar sum = Scalar(0);
@@ -250,7 +266,7 @@ Status AccelSolver<Scalar>::restart(const AccelVector<Scalar>& from) {
 template <typename Scalar>
 bool AccelSolver<Scalar>::hold_or_refuse(const AccelVector<Scalar>& p) {
   const Scalar limit = settings_.max_normalised_sigma;
-  const Scalar variance = sigma_variance(problem_.noise_model, chi2(p), dof());
+  const Scalar variance = sigma_factor(p);
   AccelVector<Scalar> sd;
   const Status s = lm_.normal_equations().standard_deviations(sd, variance);
   if (s != Status::kOk) {
@@ -385,8 +401,7 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   const Scalar chi = chi2(pn);
   const int m = dof();
   AccelVector<Scalar> sdn;
-  Status obs =
-      lm_.normal_equations().standard_deviations(sdn, sigma_variance(problem_.noise_model, chi, m));
+  Status obs = lm_.normal_equations().standard_deviations(sdn, sigma_factor(pn));
   if (obs == Status::kOk && !(sdn.maxCoeff() <= settings_.max_normalised_sigma))
     obs = Status::kUnobservable;
   if (obs != Status::kOk) return out.status = obs;
@@ -437,6 +452,26 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   out.weak = weak;
   out.held = problem_.held;
   return out.status;
+}
+
+template <typename Scalar>
+Status AccelSolver<Scalar>::covariance(
+    Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const {
+  if (!succeeded(status_)) return status_;
+  const AccelVector<Scalar>& pn = lm_.parameters();
+  Eigen::Matrix<Scalar, kAccelParams, kAccelParams> c;
+  const Status s = lm_.normal_equations().covariance(c, sigma_factor(pn));
+  if (s != Status::kOk) return s;
+  // The map to sensor units is diagonal (finish()): scales times g / scale, biases times scale.
+  AccelVector<Scalar> d = AccelVector<Scalar>::Ones();
+  for (int i = 0; i < 3; ++i) {
+    d(kScaleX + i) = settings_.gravity / problem_.scale;
+    d(kBiasX + i) = problem_.scale;
+  }
+  for (int i = 0; i < kAccelParams; ++i)
+    if (problem_.held & (1u << i)) d(i) = Scalar(0);
+  cov = d.asDiagonal() * c * d.asDiagonal();
+  return all_finite(cov) ? Status::kOk : Status::kIllConditioned;
 }
 
 const char* accel_parameter_name(int k) {

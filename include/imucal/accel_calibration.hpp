@@ -83,6 +83,9 @@ class AccelSolver {
   Status finish(AccelCalibration<Scalar>& out) const;
   Status status() const { return status_; }
   int iterations() const { return iterations_before_ + lm_.iterations(); }
+  // After a usable finish(): the covariance of the parameters in sensor units, whose diagonal is
+  // AccelCalibration::sigma squared (a held parameter's row and column are 0).
+  Status covariance(Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const;
 
   // The residual problem in normalised units (public for the LM's Problem interface).
   struct Problem {
@@ -106,6 +109,7 @@ class AccelSolver {
   bool hold_or_refuse(const AccelVector<Scalar>& p);
   int dof() const;
   Scalar chi2(const AccelVector<Scalar>& p) const;
+  Scalar sigma_factor(const AccelVector<Scalar>& p) const;
 
   AccelSettings<Scalar> settings_;
   Problem problem_{};

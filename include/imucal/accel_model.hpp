@@ -47,6 +47,34 @@ Vector3<Scalar> accel_apply(const AccelVector<Scalar>& p, const Vector3<Scalar>&
   return accel_matrix(p) * (raw + b);
 }
 
+template <typename Scalar>
+using AccelDirectionJacobian = Eigen::Matrix<Scalar, 3, kAccelParams>;
+
+// How the calibrated gravity direction n = c / |c|, c = T K (a + b), of a raw reading a moves with
+// the parameters: dn/dp = (I - n n^T) / |c| dc/dp (3 x 9).
+template <typename Scalar>
+AccelDirectionJacobian<Scalar> accel_direction_jacobian(const AccelVector<Scalar>& p,
+                                                        const Vector3<Scalar>& raw) {
+  const Vector3<Scalar> a = raw + Vector3<Scalar>(p(kBiasX), p(kBiasY), p(kBiasZ));
+  const Vector3<Scalar> u(p(kScaleX) * a(0), p(kScaleY) * a(1), p(kScaleZ) * a(2));
+  Matrix3<Scalar> t;  // T
+  t << Scalar(1), -p(kAlphaYz), p(kAlphaZy), Scalar(0), Scalar(1), -p(kAlphaZx), Scalar(0),
+      Scalar(0), Scalar(1);
+  const Vector3<Scalar> c = t * u;
+  AccelDirectionJacobian<Scalar> dc = AccelDirectionJacobian<Scalar>::Zero();
+  dc(0, kAlphaYz) = -u(1);
+  dc(0, kAlphaZy) = u(2);
+  dc(1, kAlphaZx) = -u(2);
+  for (int i = 0; i < 3; ++i) {
+    dc.col(kScaleX + i) = t.col(i) * a(i);
+    dc.col(kBiasX + i) = t.col(i) * p(kScaleX + i);
+  }
+  const Scalar norm = c.norm();
+  const Vector3<Scalar> n = c / norm;
+  const Matrix3<Scalar> project = (Matrix3<Scalar>::Identity() - n * n.transpose()) / norm;
+  return project * dc;
+}
+
 // e = |g|^2 - |T K (a + b)|^2 and its analytic Jacobian row (the seed's derivation):
 // with u = K (a + b) and c = T u, de/dp = -2 c . dc/dp.
 template <typename Scalar>

@@ -116,11 +116,12 @@ class NormalEquations {
     return Status::kOk;
   }
 
-  // Cov(p) = f / (m - N) * H^-1, valid at the minimum of f.
-  Status covariance(Matrix& cov) const {
+  // Cov(p) = f / (m - N) * H^-1, valid at the minimum of f; or variance * H^-1 (as
+  // standard_deviations()).
+  Status covariance(Matrix& cov, Scalar variance = Scalar(-1)) const {
     Matrix c = Matrix::Zero();
     const Status s = for_each_inverse_column(
-        Scalar(-1), [&](int col, const Vector& column) { c.col(col) = column; });
+        variance, [&](int col, const Vector& column) { c.col(col) = column; });
     if (s != Status::kOk) return s;
     if (!all_finite(c)) return Status::kIllConditioned;
     cov = c;
