@@ -1,12 +1,13 @@
 // The gyro run (math.md section 4) on segment statistics: the analytic Jacobian against central
 // differences, recovery of a known M and bias from exact and noisy moves, the scale search, the
-// time slicing, and the statuses for too little data.
+// time slicing, the statuses for too little data, and the sigma the inputs held fixed add.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <vector>
 
+#include "imucal/accel_model.hpp"
 #include "imucal/gyro_calibration.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/random.hpp"
@@ -241,6 +242,101 @@ TEST(GyroSolver, StepsAreBoundedSlices) {
   ASSERT_TRUE(succeeded(c.status)) << to_string(c.status);
   const int per_pass = static_cast<int>(set.segments.size()) / 16;
   EXPECT_GE(steps, per_pass * (c.iterations + 1));
+}
+
+// The sigma that GyroInputUncertainty adds equals what re-solving with perturbed inputs gives: the
+// accelerometer's parameters (through every pose's gravity direction) and the held bias, each
+// moved by central differences and the gyro solved again, G = dp/dinput, Cov += G Cov_in G^T.
+TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
+  sim::Random rng(21);
+  const GyroVector<double> truth = random_truth(rng, 1.0);
+  MoveSet<double> set = make_moves<double>(truth, truth.tail<3>(), 20, 0.003, rng);
+  // Raw accelerometer readings whose calibrated directions are the poses' up vectors.
+  AccelVector<double> pa;
+  pa << 0.01, -0.02, 0.015, 1.02, 0.98, 1.01, 0.05, -0.03, 0.02;
+  std::vector<Vector3<double>> raw;
+  for (const Vector3<double>& u : set.up)
+    raw.push_back(accel_matrix(pa).inverse() * (9.81 * u) - pa.tail<3>());
+  const auto ups_for = [&](const AccelVector<double>& q) {
+    std::vector<Vector3<double>> ups;
+    for (const Vector3<double>& a : raw) ups.push_back(accel_apply(q, a).normalized());
+    return ups;
+  };
+  // An accelerometer's covariance with correlations: 1e-3 rad, 1e-3, 0.01 m/s^2, and a random
+  // correlation structure (L L^T with a random L).
+  Eigen::Matrix<double, 9, 9> l = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int r = 0; r < 9; ++r)
+    for (int c = 0; c <= r; ++c) l(r, c) = (r == c ? 1.0 : 0.4) * rng.normal();
+  const AccelVector<double> sd_a =
+      (AccelVector<double>() << 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 0.01, 0.01).finished();
+  const Eigen::Matrix<double, 9, 9> cov_a =
+      sd_a.asDiagonal() * l * l.transpose() * sd_a.asDiagonal() / l.rowwise().squaredNorm().mean();
+  const Vector3<double> sd_b(2e-3, 3e-3, 1.5e-3);
+
+  GyroSettings<double> settings;
+  settings.nominal_scale = 1.0;
+  const Vector3<double> b0 = truth.tail<3>();
+  const auto solve_with = [&](const AccelVector<double>& q, const Vector3<double>& shift,
+                              GyroSolver<double, kGyroMatrixParams>& solver) {
+    set.up = ups_for(q);
+    GyroData<double> data = set.data();
+    data.bias_shift = shift;
+    Status s = solver.start(data, b0);
+    while (s == Status::kRunning) s = solver.step();
+    return s;
+  };
+  GyroSolver<double, kGyroMatrixParams> solver(settings);
+  ASSERT_TRUE(succeeded(solve_with(pa, Vector3<double>::Zero(), solver)));
+  GyroCalibration<double> out;
+  ASSERT_TRUE(succeeded(solver.finish(out)));
+  const GyroVector<double> sigma0 = out.sigma;
+  out.sigma.tail<3>() = sd_b;  // the held bias's sigma, as the calibrator sets it
+
+  GyroInputUncertainty<double> widen;
+  widen.start(solver, cov_a);
+  const auto dup = [&](int k) {
+    return accel_direction_jacobian(pa, raw[static_cast<std::size_t>(k)]);
+  };
+  Status s;
+  int steps = 0;
+  while ((s = widen.step(solver, dup, 7)) == Status::kRunning) ++steps;
+  ASSERT_EQ(s, Status::kOk);
+  EXPECT_GT(steps, 20);  // bounded slices, as the solve's
+  ASSERT_EQ(widen.finish(solver, out), Status::kOk);
+
+  // Central differences of the whole solve.
+  Eigen::Matrix<double, 9, 9> ga;
+  Eigen::Matrix<double, 9, 3> gb;
+  for (int j = 0; j < 12; ++j) {
+    AccelVector<double> hi = pa, lo = pa;
+    Vector3<double> shift_hi = Vector3<double>::Zero(), shift_lo = shift_hi;
+    const double h = j < 9 ? 1e-5 * std::max(1.0, std::abs(pa(j))) : 1e-5;
+    if (j < 9) {
+      hi(j) += h;
+      lo(j) -= h;
+    } else {
+      shift_hi(j - 9) += h;
+      shift_lo(j - 9) -= h;
+    }
+    GyroSolver<double, kGyroMatrixParams> plus(settings), minus(settings);
+    ASSERT_TRUE(succeeded(solve_with(hi, shift_hi, plus)));
+    ASSERT_TRUE(succeeded(solve_with(lo, shift_lo, minus)));
+    const Eigen::Matrix<double, 9, 1> d = (plus.parameters() - minus.parameters()) / (2 * h);
+    if (j < 9)
+      ga.col(j) = d;
+    else
+      gb.col(j - 9) = d;
+  }
+  const Eigen::Matrix<double, 9, 9> extra =
+      ga * cov_a * ga.transpose() +
+      gb * Vector3<double>(sd_b.cwiseProduct(sd_b)).asDiagonal() * gb.transpose();
+  double widest = 0.0;
+  for (int k = 0; k < 9; ++k) {
+    const double expected = std::sqrt(sigma0(k) * sigma0(k) + extra(k, k));
+    EXPECT_NEAR(out.sigma(k), expected, 0.01 * expected) << "parameter " << k;
+    widest = std::max(widest, expected / sigma0(k));
+  }
+  EXPECT_GT(widest, 1.5);  // the inputs' uncertainty matters here: the check can tell
 }
 
 TEST(GyroSolver, TooFewMoves) {

@@ -186,7 +186,8 @@ class Calibrator {
   static constexpr int kMaxSegments = MaxSegments;
 
   explicit Calibrator(const CalibratorSettings<Scalar>& settings = CalibratorSettings<Scalar>())
-      : settings_(settings), accel_solver_(settings.accel) {
+      : settings_(settings) {
+    solve_memory_.make_accel(settings.accel);
     make_gyro_solver();
     reset();
   }
@@ -195,7 +196,7 @@ class Calibrator {
   // temporary on the stack).
   void reset(const CalibratorSettings<Scalar>& settings) {
     settings_ = settings;
-    accel_solver_ = AccelSolver<Scalar>(settings.accel);
+    solve_memory_.make_accel(settings.accel);
     make_gyro_solver();
     reset();
   }
@@ -319,7 +320,8 @@ class Calibrator {
     calibration_.has_temperature = mean_temperature(calibration_.temperature_c);
     phase_ = Phase::kSolving;
     stage_ = SolveStage::kAccel;
-    const Status s = accel_solver_.start(poses_.span());
+    solve_memory_.make_accel(settings_.accel);
+    const Status s = solve_memory_.accel().start(poses_.span());
     if (s != Status::kRunning && s != Status::kOk && !succeeded(s)) return fail_accel();
     return Status::kRunning;
   }
@@ -332,10 +334,10 @@ class Calibrator {
              : phase_ == Phase::kFailed ? calibration_status()
                                         : Status::kNotStarted;
     if (stage_ == SolveStage::kAccel) {
-      const Status s = accel_solver_.status() == Status::kRunning ? accel_solver_.step()
-                                                                  : accel_solver_.status();
+      AccelSolver<Scalar>& solver = solve_memory_.accel();
+      const Status s = solver.status() == Status::kRunning ? solver.step() : solver.status();
       if (s == Status::kRunning) return s;
-      if (!succeeded(accel_solver_.finish(calibration_.accel))) return fail_accel();
+      if (!succeeded(solver.finish(calibration_.accel))) return fail_accel();
       if (!settings_.has_gyro) {  // the accelerometer alone: done
         calibration_.quality = quality();
         phase_ = Phase::kDone;
@@ -344,14 +346,29 @@ class Calibrator {
       start_gyro();
       return phase_ == Phase::kFailed ? calibration_status() : Status::kRunning;
     }
-    const Status s = settings_.gyro.refine_bias ? gyro_.twelve().step() : gyro_.nine().step();
-    if (s == Status::kRunning) return s;
-    if (settings_.gyro.refine_bias) {
-      gyro_.twelve().finish(calibration_.gyro);
-    } else {
-      gyro_.nine().finish(calibration_.gyro);
-      if (succeeded(calibration_.gyro.status))  // the bias is the rests' mean rate
-        calibration_.gyro.sigma.template tail<3>() = rest_bias_sigma();
+    if (stage_ == SolveStage::kGyro) {
+      const Status s = settings_.gyro.refine_bias ? gyro_.twelve().step() : gyro_.nine().step();
+      if (s == Status::kRunning) return s;
+      if (settings_.gyro.refine_bias) {
+        gyro_.twelve().finish(calibration_.gyro);
+      } else {
+        gyro_.nine().finish(calibration_.gyro);
+        if (succeeded(calibration_.gyro.status))  // the bias is the rests' mean rate
+          calibration_.gyro.sigma.template tail<3>() = rest_bias_sigma();
+      }
+      if (succeeded(calibration_.gyro.status) && start_input_uncertainty()) return Status::kRunning;
+    } else {  // SolveStage::kGyroSigma
+      const AccelVector<Scalar>& pa = calibration_.accel.params;
+      const auto dup = [&](int k) { return accel_direction_jacobian(pa, poses_[k].mean); };
+      GyroInputUncertainty<Scalar>& u = solve_memory_.input_uncertainty();
+      const int slice = settings_.gyro.segments_per_step;
+      Status s = settings_.gyro.refine_bias ? u.step(gyro_.twelve(), dup, slice)
+                                            : u.step(gyro_.nine(), dup, slice);
+      if (s == Status::kRunning) return s;
+      if (s == Status::kOk)
+        s = settings_.gyro.refine_bias ? u.finish(gyro_.twelve(), calibration_.gyro)
+                                       : u.finish(gyro_.nine(), calibration_.gyro);
+      if (s != Status::kOk) fail_gyro(s);
     }
     calibration_.quality = quality();
     phase_ = succeeded(calibration_.gyro.status) ? Phase::kDone : Phase::kFailed;
@@ -368,7 +385,7 @@ class Calibrator {
   // Whether the latest sample taken was classified still (e.g. for a status LED).
   bool still() const { return last_still_; }
   // Whether solve_step() is in the gyro run (after the accelerometer's).
-  bool solving_gyro() const { return phase_ == Phase::kSolving && stage_ == SolveStage::kGyro; }
+  bool solving_gyro() const { return phase_ == Phase::kSolving && stage_ != SolveStage::kAccel; }
 
   const Calibration<Scalar>& calibration() const { return calibration_; }
   PoseSpan<Scalar> poses() const { return poses_.span(); }
@@ -529,7 +546,9 @@ class Calibrator {
 
   void make_gyro_solver() { gyro_.make(settings_.gyro); }
 
-  enum class SolveStage : std::uint8_t { kAccel, kGyro };
+  // The accelerometer's LM, the gyro's, then the pass that carries the inputs the gyro's held
+  // fixed into its sigma.
+  enum class SolveStage : std::uint8_t { kAccel, kGyro, kGyroSigma };
 
   // A run of consecutive samples, all still or all moving: gyro statistics (of u = w + b0),
   // path angle sum |u| dt, time span, and the acceleration sum, re-centred: relative to acc_ref
@@ -1295,8 +1314,35 @@ class Calibrator {
     }
   }
 
+  // After a usable gyro solve: the accelerometer's covariance (while its solver's memory is still
+  // there) and the start of the pass that widens the gyro's sigma by it (GyroInputUncertainty).
+  // False, and the gyro failed with the reason, if that covariance cannot be had.
+  bool start_input_uncertainty() {
+    Eigen::Matrix<Scalar, kAccelParams, kAccelParams> cov_a;
+    const Status s = solve_memory_.accel().covariance(cov_a);
+    if (s != Status::kOk) {
+      fail_gyro(s);
+      return false;
+    }
+    GyroInputUncertainty<Scalar>& u = solve_memory_.make_input_uncertainty();
+    if (settings_.gyro.refine_bias)
+      u.start(gyro_.twelve(), cov_a);
+    else
+      u.start(gyro_.nine(), cov_a);
+    stage_ = SolveStage::kGyroSigma;
+    return true;
+  }
+
+  // The gyro's result refused for `why` (nothing of it is kept).
+  void fail_gyro(Status why) {
+    const int moves = calibration_.gyro.moves;
+    calibration_.gyro = GyroCalibration<Scalar>{};
+    calibration_.gyro.status = why;
+    calibration_.gyro.moves = moves;
+  }
+
   Status fail_accel() {
-    accel_solver_.finish(calibration_.accel);
+    solve_memory_.accel().finish(calibration_.accel);
     calibration_.quality = Quality::kNone;
     phase_ = Phase::kFailed;
     return calibration_.accel.status;
@@ -1486,7 +1532,45 @@ class Calibrator {
 
   // Solving.
   Vector3<Scalar> up_[static_cast<std::size_t>(MaxPoses)] = {};
-  AccelSolver<Scalar> accel_solver_;
+  // The accelerometer's solver, then (once its result and covariance are out) the pass that
+  // carries them into the gyro's sigma: one memory, as the two never run together.
+  static_assert(std::is_trivially_destructible<AccelSolver<Scalar>>::value &&
+                    std::is_trivially_destructible<GyroInputUncertainty<Scalar>>::value,
+                "the solve memory is rebuilt in place without a destructor call");
+  class SolveMemory {
+   public:
+    SolveMemory() { new (&u_.accel) AccelSolver<Scalar>(); }
+    SolveMemory(const SolveMemory& o) { copy_from(o); }
+    SolveMemory& operator=(const SolveMemory& o) {
+      if (this != &o) copy_from(o);
+      return *this;
+    }
+    void make_accel(const AccelSettings<Scalar>& s) {
+      accel_ = true;
+      new (&u_.accel) AccelSolver<Scalar>(s);
+    }
+    GyroInputUncertainty<Scalar>& make_input_uncertainty() {
+      accel_ = false;
+      return *new (&u_.input) GyroInputUncertainty<Scalar>();
+    }
+    AccelSolver<Scalar>& accel() { return u_.accel; }
+    GyroInputUncertainty<Scalar>& input_uncertainty() { return u_.input; }
+
+   private:
+    void copy_from(const SolveMemory& o) {
+      accel_ = o.accel_;
+      if (accel_)
+        new (&u_.accel) AccelSolver<Scalar>(o.u_.accel);
+      else
+        new (&u_.input) GyroInputUncertainty<Scalar>(o.u_.input);
+    }
+    union U {
+      U() {}
+      AccelSolver<Scalar> accel;
+      GyroInputUncertainty<Scalar> input;
+    } u_;
+    bool accel_ = true;
+  } solve_memory_;
   // The gyro solver that settings.gyro.refine_bias picks. Only one is ever used per run, so they
   // share memory (920 B saved); built in place, copied as the one that is there.
   using Gyro9 = GyroSolver<Scalar, kGyroMatrixParams>;
