@@ -149,22 +149,6 @@ Status relative_sigma(const NormalEquations<Scalar, kMagParams>& ne, const MagVe
   return Status::kOk;
 }
 
-// The LM stops with kNoProgress when the cost can no longer be evaluated precisely enough to
-// see a decrease (in float, when the residuals are small differences of O(1) numbers). If the
-// undamped Gauss-Newton step from where it stopped is below 5 % of every parameter's sigma, the
-// estimate is as good as the data make it: converged.
-template <typename Scalar, int N>
-Status precision_limited(const LevenbergMarquardt<Scalar, N>& lm, Status s) {
-  if (s != Status::kNoProgress) return s;
-  Eigen::Matrix<Scalar, N, 1> gn, sd;
-  const NormalEquations<Scalar, N>& ne = lm.normal_equations();
-  if (ne.solve_damped(Scalar(0), gn) != Status::kOk || ne.standard_deviations(sd) != Status::kOk)
-    return s;
-  for (int i = 0; i < N; ++i)
-    if (!(std::abs(gn(i)) <= Scalar(0.05) * sd(i))) return s;
-  return Status::kConvergedCost;
-}
-
 template <typename Scalar>
 Quality mag_quality(Scalar coverage, Scalar fit_error_pct) {
   if (coverage >= Scalar(0.8) && fit_error_pct <= Scalar(1.5)) return Quality::kGood;

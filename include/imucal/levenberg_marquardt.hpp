@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "imucal/normal_equations.hpp"
 
@@ -198,5 +199,24 @@ class LevenbergMarquardt {
   int iterations_ = 0;
   Status status_ = Status::kNotStarted;
 };
+
+// The LM stops with kNoProgress when the cost can no longer be evaluated precisely enough to
+// see a decrease (in float, when the residuals are small differences of O(1) numbers). If the
+// undamped Gauss-Newton step from where it stopped is below 5 % of every parameter's sigma
+// (variance * H^-1, as NormalEquations::standard_deviations()), the estimate is as good as the
+// data make it: kConvergedCost. Any other status is returned as it is.
+template <typename Scalar, int N>
+Status precision_limited(const LevenbergMarquardt<Scalar, N>& lm, Status s,
+                         Scalar variance = Scalar(-1)) {
+  if (s != Status::kNoProgress) return s;
+  Eigen::Matrix<Scalar, N, 1> gn, sd;
+  const NormalEquations<Scalar, N>& ne = lm.normal_equations();
+  if (ne.solve_damped(Scalar(0), gn) != Status::kOk ||
+      ne.standard_deviations(sd, variance) != Status::kOk)
+    return s;
+  for (int i = 0; i < N; ++i)
+    if (!(std::abs(gn(i)) <= Scalar(0.05) * sd(i))) return s;
+  return Status::kConvergedCost;
+}
 
 }  // namespace imucal
