@@ -60,8 +60,12 @@ sim::AccelTruth effective_accel_truth(const Cal& cal, const sim::Recording& rec,
   return t;
 }
 
+// Each parameter's error in sigmas (accelerometer's 9, then the gyro's 12; NaN for one held).
+using Errors = Eigen::Matrix<double, kAccelParams + kGyroParams, 1>;
+
 template <typename Scalar>
-void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expect{}) {
+void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expect{},
+         Errors* errors = nullptr) {
   sc.plan.record_attitude = false;
   sim::Random rng(seed);
   static BigCalibrator<Scalar> cal;
@@ -114,7 +118,21 @@ void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expe
   judged.acc = effective_accel_truth(cal, rec, truth, sc.plan);
   judged.gyro = rec.gyro;
   double worst = 0.0;
-  expect_within_3_sigma(c, judged, &worst);
+  if (errors == nullptr) {  // one recording: the 3 sigma rule
+    expect_within_3_sigma(c, judged, &worst);
+  } else {  // one of many: the caller judges them together
+    for (int k = 0; k < kAccelParams; ++k)
+      (*errors)(k) = (c.accel.held & (1u << k)) != 0
+                         ? std::nan("")
+                         : (static_cast<double>(c.accel.params(k)) - judged.acc.params(k)) /
+                               static_cast<double>(c.accel.sigma(k));
+    for (int k = 0; k < kGyroParams; ++k)
+      (*errors)(kAccelParams + k) =
+          (static_cast<double>(c.gyro.params(k)) - judged.gyro.params(k)) /
+          static_cast<double>(c.gyro.sigma(k));
+    for (int k = 0; k < errors->size(); ++k)
+      if (!std::isnan((*errors)(k))) worst = std::max(worst, std::abs((*errors)(k)));
+  }
   std::printf("%-28s %s: %d of %d rests, %d moves, worst %.2f sigma, gyro rms %.3f deg\n", name,
               sizeof(Scalar) == 4 ? "float " : "double", p.poses, rests, p.moves, worst,
               static_cast<double>(c.gyro.residual_rms) / kDeg);
@@ -238,16 +256,12 @@ TEST(Protocols, TenPosesSigmaIsHonest) {
 
 TEST(Protocols, FiftyPoses) { both<float>("50 poses", base(10.0, 49), 46); }
 
-// High rates on a board warming up (the accelerometer drifting at 0.1 count/s at first). The drift
-// is in neither the model nor its sigma: over 20 seeds at 1 kHz on the host, 2 recordings put a
-// parameter beyond 5 sigma (without the drift none beyond 3), and the M4F's 2 kHz recording of
-// this seed (its libm makes a different one) is such a case at 5.8 sigma. The boards run 1 kHz.
+// High rates on a board warming up (the accelerometer drifting at 0.1 count/s at first). The
+// drift moves the bias each pose sees: the accelerometer's sigma takes it in through the floor
+// fitted to the pose residuals, the gyro's through the accelerometer's covariance carried into
+// every pose's gravity direction.
 TEST(Protocols, HighRatesOnAWarmingBoard) {
-#ifdef IMUCAL_SMALL_TARGET
-  for (double rate : {1000.0}) {
-#else
   for (double rate : {1000.0, 2000.0}) {
-#endif
     Scenario sc = base(10.0, 14);
     sc.plan.rate_hz = rate;
     sc.plan.accel_drift = 0.1;
@@ -255,6 +269,63 @@ TEST(Protocols, HighRatesOnAWarmingBoard) {
     std::snprintf(name, sizeof name, "%.0f Hz, warming", rate);
     both<float>(name, sc, 47);
   }
+}
+
+// The same protocol over many recordings, in float: for every parameter the RMS of the error in
+// sigmas lies within the band that as many unit normals give (3 sigma of a chi-square RMS). The
+// accelerometer's biases are judged against the truth less the drift's mean over the poses, which
+// their sigma does not know of (it covers the drift as scatter between poses): theirs may be
+// smaller. With 15 poses the accelerometer's floor rests on 6 degrees of freedom, so its errors
+// have Student's tails: a rare one beyond 4 sigma, none beyond 6.
+TEST(Protocols, WarmingBoardSigmaIsHonest) {
+#ifdef IMUCAL_SMALL_TARGET
+  GTEST_SKIP() << "40 recordings at 1 kHz: the host's";
+#else
+  constexpr int kRuns = 40;
+  Errors sum_z2 = Errors::Zero();
+  Eigen::Matrix<int, kAccelParams + kGyroParams, 1> counted =
+      Eigen::Matrix<int, kAccelParams + kGyroParams, 1>::Zero();
+  int beyond_3 = 0;  // recordings with a parameter beyond 3 sigma
+  double worst = 0.0;
+  for (int r = 0; r < kRuns; ++r) {
+    Scenario sc = base(10.0, 14);
+    sc.plan.rate_hz = 1000.0;
+    sc.plan.accel_drift = 0.1;
+    char name[40];
+    std::snprintf(name, sizeof name, "warming, seed %d", 47 + r);
+    Errors z = Errors::Constant(std::nan(""));
+    run<float>(name, sc, 47 + static_cast<std::uint64_t>(r), Expect{}, &z);
+    bool over = false;
+    for (int k = 0; k < z.size(); ++k) {
+      if (std::isnan(z(k))) continue;
+      sum_z2(k) += z(k) * z(k);
+      ++counted(k);
+      over = over || std::abs(z(k)) > 3.0;
+      worst = std::max(worst, std::abs(z(k)));
+    }
+    beyond_3 += over ? 1 : 0;
+  }
+  // 21 parameters within 3 sigma: 94 % of recordings if sigma is right, 2.2 of 40 expected over.
+  EXPECT_LE(beyond_3, 6);
+  EXPECT_LT(worst, 6.0);
+  std::printf("%d of %d recordings with a parameter beyond 3 sigma, worst %.2f\n", beyond_3, kRuns,
+              worst);
+  const double n = kRuns;
+  const double band = 3.0 * std::sqrt(0.5 / n);  // RMS of n unit normals: 1 +- sqrt(1 / (2 n))
+  for (int k = 0; k < sum_z2.size(); ++k) {
+    const bool accel = k < kAccelParams;
+    static const char* const kGyroNames[kGyroParams] = {
+        "g_yz", "g_zy", "g_zx", "g_xz", "g_xy", "g_yx", "s_x", "s_y", "s_z", "b_x", "b_y", "b_z"};
+    const char* what = accel ? accel_parameter_name(k) : kGyroNames[k - kAccelParams];
+    ASSERT_GE(counted(k), kRuns * 9 / 10) << what;
+    const double rms = std::sqrt(sum_z2(k) / counted(k));
+    std::printf("  %-6s %-8s error / sigma RMS %.3f over %d\n", accel ? "accel" : "gyro", what, rms,
+                counted(k));
+    const bool accel_bias = accel && k >= kBiasX;
+    EXPECT_GT(rms, accel_bias ? 0.5 : 1.0 - band) << what;
+    EXPECT_LT(rms, 1.0 + band) << what;
+  }
+#endif
 }
 
 // The field's RestMonitor runs the calibrator's detector. Set up from what the calibration
