@@ -317,6 +317,7 @@ class GyroSolver {
   const Problem& problem() const { return problem_; }
   const Vector& parameters() const { return lm_.parameters(); }
   const NormalEquations<Scalar, N>& normal_equations() const { return lm_.normal_equations(); }
+  const GyroSettings<Scalar>& settings() const { return settings_; }
   Status status() const { return status_; }
   int iterations() const { return lm_.iterations(); }
   int evaluations() const { return evaluations_; }
@@ -379,28 +380,43 @@ class GyroInputUncertainty {
   }
 
   // Widens out.sigma (the solver's own finish(); with N = 9, out.sigma's bias entries are the
-  // held bias's sigma) by what the pass found.
+  // held bias's sigma) by what the pass found; kUnobservable if a widened sigma passes the
+  // solver's max_normalised_sigma. One column of H^-1 at a time, in plain loops: a 12 x 12 Eigen
+  // product would take the general path, which links malloc.
   template <int N>
   Status finish(const GyroSolver<Scalar, N>& solver, GyroCalibration<Scalar>& out) const {
     if (!succeeded(out.status)) return out.status;
     const Vector3<Scalar> sb = out.sigma.template tail<3>();
-    const Vector3<Scalar> bias_variance = sb.cwiseProduct(sb);
-    Eigen::Matrix<Scalar, N, N> h_inv;
-    const Status s = solver.normal_equations().covariance(h_inv, Scalar(1));
-    if (s != Status::kOk) return s;
     AccelCovariance cov_a;
     int i = 0;
     for (int c = 0; c < kAccelParams; ++c)
       for (int r = c; r < kAccelParams; ++r) cov_a(r, c) = cov_a(c, r) = cov_a_[i++];
-    const Eigen::Matrix<Scalar, N, kAccelParams> xa = h_inv * s_.a.template topRows<N>();
-    Eigen::Matrix<Scalar, N, 3> xb = Eigen::Matrix<Scalar, N, 3>::Zero();
-    if constexpr (N == kGyroMatrixParams) xb = h_inv * s_.hb;
+    Eigen::Matrix<Scalar, N, 1> extra = Eigen::Matrix<Scalar, N, 1>::Zero();
+    // Column k of H^-1 is its row k: x_k = (H^-1 A)_k, extra_k = x_k Cov x_k^T.
+    const Status s = solver.normal_equations().inverse_columns(
+        Scalar(1), [&](int k, const Eigen::Matrix<Scalar, N, 1>& column) {
+          Scalar xa[kAccelParams] = {};
+          Scalar xb[3] = {};
+          for (int j = 0; j < N; ++j) {
+            for (int q = 0; q < kAccelParams; ++q) xa[q] += column(j) * s_.a(j, q);
+            if constexpr (N == kGyroMatrixParams)
+              for (int q = 0; q < 3; ++q) xb[q] += column(j) * s_.hb(j, q);
+          }
+          Scalar e = Scalar(0);
+          for (int r = 0; r < kAccelParams; ++r)
+            for (int c = 0; c < kAccelParams; ++c) e += xa[r] * cov_a(r, c) * xa[c];
+          for (int q = 0; q < 3; ++q) e += xb[q] * xb[q] * sb(q) * sb(q);
+          extra(k) = e;
+        });
+    if (s != Status::kOk) return s;
     for (int k = 0; k < N; ++k) {
-      const Scalar extra = xa.row(k) * cov_a * xa.row(k).transpose() +
-                           xb.row(k).cwiseAbs2().dot(bias_variance.transpose());
-      if (!(extra >= Scalar(0)) || !std::isfinite(extra)) return Status::kIllConditioned;
-      out.sigma(k) = std::sqrt(out.sigma(k) * out.sigma(k) + extra);
+      if (!(extra(k) >= Scalar(0)) || !std::isfinite(extra(k))) return Status::kIllConditioned;
+      out.sigma(k) = std::sqrt(out.sigma(k) * out.sigma(k) + extra(k));
     }
+    for (int k = 0; k < N; ++k)
+      if (!(gyro_normalised_sigma<Scalar>(out.params, out.sigma, k) <=
+            solver.settings().max_normalised_sigma))
+        return Status::kUnobservable;
     return Status::kOk;
   }
 

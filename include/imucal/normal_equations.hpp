@@ -128,6 +128,14 @@ class NormalEquations {
     return Status::kOk;
   }
 
+  // Calls f(c, column c of variance * H^-1) for each c (variance < 0: f / (m - N)), one column at a
+  // time: for what needs all of H^-1 without a matrix of it (nor an Eigen product that may
+  // allocate) on the stack.
+  template <class F>
+  Status inverse_columns(Scalar variance, F f) const {
+    return for_each_inverse_column(variance, f);
+  }
+
   // sqrt(diag(Cov)) without forming the covariance: what a device needs, with less stack.
   // variance < 0: Cov = f / (m - N) H^-1 (the noise taken from the fit's own scatter); otherwise
   // Cov = variance H^-1 (rows weighted by a known noise model: variance 1 when it is exact).
