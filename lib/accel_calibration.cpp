@@ -385,7 +385,8 @@ Status AccelSolver<Scalar>::step() {
   if (status_ != Status::kRunning) return status_;
   // At 1 kHz a pose mean is so precise that in float the cost's rounding hides the last decrease
   // (the LM then ends at maximum damping a few hundredths of a sigma from the minimum).
-  const Status s = precision_limited(lm_, lm_.step(problem_), sigma_factor(lm_.parameters()));
+  Status s = lm_.step(problem_);
+  if (s == Status::kNoProgress) s = precision_limited(lm_, s, sigma_factor(lm_.parameters()));
   if (succeeded(s)) return after_convergence(s);
   return status_ = s;
 }
