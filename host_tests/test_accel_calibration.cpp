@@ -3,6 +3,7 @@
 // specific status for every kind of degenerate input.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
@@ -416,6 +417,45 @@ TEST(AccelNoiseModel, AnUndeterminedMisalignmentIsHeldAndNamed) {
   EXPECT_LE(refused, 1);
   EXPECT_STRNE(accel_orientation_hint(kAlphaYz), "");
   EXPECT_STREQ(accel_parameter_name(kAlphaYz), "alpha_yz");
+}
+
+// The covariance the gyro's sigma takes from the accelerometer: in sensor units, its diagonal is
+// sigma squared, it is symmetric and positive semi-definite, and a held parameter's row and column
+// are 0.
+TEST(AccelNoiseModel, CovarianceMatchesSigmaAndHoldsTheHeld) {
+  const sim::AccelSensorSpec spec = sim::AccelSensorSpec::raw_counts();
+  const double r = std::sqrt(0.5);
+  const Vector3<double> dirs[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
+                                  {0, 0, 1}, {0, 0, -1}, {r, 0, r},  {-r, 0, r},
+                                  {0, r, r}, {0, -r, r}, {r, 0, -r}, {0, r, -r}};
+  int held_seen = 0;
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    sim::Random rng(6100 + seed);
+    const sim::AccelTruth truth = sim::draw_accel_truth(spec, rng);
+    DoubleStore poses;
+    for (const Vector3<double>& d : dirs)
+      poses.add(sim::noisy_pose_mean(truth, spec, d, 300, rng), 300, spec.noise * spec.noise);
+    AccelSolver<double> solver(settings_for<double>(truth.gravity));
+    Status s = solver.start(poses.span());
+    while (s == Status::kRunning) s = solver.step();
+    AccelCalibration<double> out;
+    if (!succeeded(solver.finish(out))) continue;
+    Eigen::Matrix<double, kAccelParams, kAccelParams> cov;
+    ASSERT_EQ(solver.covariance(cov), Status::kOk);
+    EXPECT_LT((cov - cov.transpose()).cwiseAbs().maxCoeff(), 1e-12 * cov.cwiseAbs().maxCoeff());
+    for (int k = 0; k < kAccelParams; ++k) {
+      if (out.held & (1u << k)) {
+        ++held_seen;
+        EXPECT_EQ(cov.row(k).cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ(cov.col(k).cwiseAbs().maxCoeff(), 0.0);
+      } else {
+        EXPECT_NEAR(std::sqrt(cov(k, k)), out.sigma(k), 1e-9 * out.sigma(k)) << kNames[k];
+      }
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, kAccelParams, kAccelParams>> eig(cov);
+    EXPECT_GE(eig.eigenvalues().minCoeff(), -1e-12 * eig.eigenvalues().maxCoeff());
+  }
+  EXPECT_GT(held_seen, 0);  // no pose between x and y: alpha_yz held in these recordings
 }
 
 TEST(AccelDegenerate, FewerThanTenPoses) {

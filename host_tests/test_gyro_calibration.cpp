@@ -246,8 +246,10 @@ TEST(GyroSolver, StepsAreBoundedSlices) {
 
 // The sigma that GyroInputUncertainty adds equals what re-solving with perturbed inputs gives: the
 // accelerometer's parameters (through every pose's gravity direction) and the held bias, each
-// moved by central differences and the gyro solved again, G = dp/dinput, Cov += G Cov_in G^T.
-TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
+// moved by central differences and the gyro solved again, G = dp/dinput, Cov += G Cov_in G^T. With
+// the bias refined (N = 12) only the accelerometer's parameters are inputs.
+template <int N>
+void widening_matches_re_solves() {
   sim::Random rng(21);
   const GyroVector<double> truth = random_truth(rng, 1.0);
   MoveSet<double> set = make_moves<double>(truth, truth.tail<3>(), 20, 0.003, rng);
@@ -277,7 +279,7 @@ TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
   settings.nominal_scale = 1.0;
   const Vector3<double> b0 = truth.tail<3>();
   const auto solve_with = [&](const AccelVector<double>& q, const Vector3<double>& shift,
-                              GyroSolver<double, kGyroMatrixParams>& solver) {
+                              GyroSolver<double, N>& solver) {
     set.up = ups_for(q);
     GyroData<double> data = set.data();
     data.bias_shift = shift;
@@ -285,12 +287,12 @@ TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
     while (s == Status::kRunning) s = solver.step();
     return s;
   };
-  GyroSolver<double, kGyroMatrixParams> solver(settings);
+  GyroSolver<double, N> solver(settings);
   ASSERT_TRUE(succeeded(solve_with(pa, Vector3<double>::Zero(), solver)));
   GyroCalibration<double> out;
   ASSERT_TRUE(succeeded(solver.finish(out)));
   const GyroVector<double> sigma0 = out.sigma;
-  out.sigma.tail<3>() = sd_b;  // the held bias's sigma, as the calibrator sets it
+  if (N == kGyroMatrixParams) out.sigma.tail<3>() = sd_b;  // the held bias's, as the calibrator
 
   GyroInputUncertainty<double> widen;
   widen.start(solver, cov_a);
@@ -305,9 +307,9 @@ TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
   ASSERT_EQ(widen.finish(solver, out), Status::kOk);
 
   // Central differences of the whole solve.
-  Eigen::Matrix<double, 9, 9> ga;
-  Eigen::Matrix<double, 9, 3> gb;
-  for (int j = 0; j < 12; ++j) {
+  Eigen::Matrix<double, N, 9> ga;
+  Eigen::Matrix<double, N, 3> gb = Eigen::Matrix<double, N, 3>::Zero();
+  for (int j = 0; j < (N == kGyroMatrixParams ? 12 : 9); ++j) {
     AccelVector<double> hi = pa, lo = pa;
     Vector3<double> shift_hi = Vector3<double>::Zero(), shift_lo = shift_hi;
     const double h = j < 9 ? 1e-5 * std::max(1.0, std::abs(pa(j))) : 1e-5;
@@ -318,25 +320,33 @@ TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
       shift_hi(j - 9) += h;
       shift_lo(j - 9) -= h;
     }
-    GyroSolver<double, kGyroMatrixParams> plus(settings), minus(settings);
+    GyroSolver<double, N> plus(settings), minus(settings);
     ASSERT_TRUE(succeeded(solve_with(hi, shift_hi, plus)));
     ASSERT_TRUE(succeeded(solve_with(lo, shift_lo, minus)));
-    const Eigen::Matrix<double, 9, 1> d = (plus.parameters() - minus.parameters()) / (2 * h);
+    const Eigen::Matrix<double, N, 1> d = (plus.parameters() - minus.parameters()) / (2 * h);
     if (j < 9)
       ga.col(j) = d;
     else
       gb.col(j - 9) = d;
   }
-  const Eigen::Matrix<double, 9, 9> extra =
+  const Eigen::Matrix<double, N, N> extra =
       ga * cov_a * ga.transpose() +
       gb * Vector3<double>(sd_b.cwiseProduct(sd_b)).asDiagonal() * gb.transpose();
   double widest = 0.0;
-  for (int k = 0; k < 9; ++k) {
+  for (int k = 0; k < N; ++k) {
     const double expected = std::sqrt(sigma0(k) * sigma0(k) + extra(k, k));
     EXPECT_NEAR(out.sigma(k), expected, 0.01 * expected) << "parameter " << k;
     widest = std::max(widest, expected / sigma0(k));
   }
   EXPECT_GT(widest, 1.5);  // the inputs' uncertainty matters here: the check can tell
+}
+
+TEST(GyroInputUncertainty, AddsWhatReSolvesWithPerturbedInputsGive) {
+  widening_matches_re_solves<kGyroMatrixParams>();
+}
+
+TEST(GyroInputUncertainty, AddsWhatReSolvesGiveWithTheBiasRefined) {
+  widening_matches_re_solves<kGyroParams>();
 }
 
 TEST(GyroSolver, TooFewMoves) {
