@@ -296,12 +296,12 @@ void widening_matches_re_solves() {
 
   GyroInputUncertainty<double> widen;
   widen.start(solver, cov_a);
-  const auto dup = [&](int k) {
-    return accel_direction_jacobian(pa, raw[static_cast<std::size_t>(k)]);
-  };
+  std::vector<Pose<double>> poses;
+  for (const Vector3<double>& a : raw) poses.push_back({a, 100, 0.0});
+  const PoseSpan<double> span{poses.data(), static_cast<int>(poses.size())};
   Status s;
   int steps = 0;
-  while ((s = widen.step(solver, dup, 7)) == Status::kRunning) ++steps;
+  while ((s = widen.step(solver, pa, span, 7)) == Status::kRunning) ++steps;
   ASSERT_EQ(s, Status::kOk);
   EXPECT_GT(steps, 20);  // bounded slices, as the solve's
   ASSERT_EQ(widen.finish(solver, out), Status::kOk);

@@ -164,9 +164,98 @@ Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
   return out.status;
 }
 
+template <typename Scalar>
+template <int N>
+void GyroInputUncertainty<Scalar>::start(const GyroSolver<Scalar, N>& solver,
+                                         const AccelCovariance& cov_a) {
+  full_.data = solver.problem().data;
+  int k = 0;
+  for (int c = 0; c < kAccelParams; ++c)
+    for (int r = c; r < kAccelParams; ++r) cov_a_[k++] = cov_a(r, c);
+  s_ = typename GyroProblem<Scalar, kGyroParams>::Sensitivity{};
+}
+
+template <typename Scalar>
+template <int N>
+Status GyroInputUncertainty<Scalar>::step(const GyroSolver<Scalar, N>& solver,
+                                          const AccelVector<Scalar>& pa, PoseSpan<Scalar> poses,
+                                          int max_segments) {
+  Eigen::Matrix<Scalar, kGyroParams, 1> p = Eigen::Matrix<Scalar, kGyroParams, 1>::Zero();
+  p.template head<N>() = solver.parameters();  // db = 0 when the bias is held
+  return full_.sensitivity_slice(p, pa, poses, s_, max_segments);
+}
+
+// One column of H^-1 at a time, in plain loops: a 12 x 12 Eigen product would take the general
+// path, which links malloc.
+template <typename Scalar>
+template <int N>
+Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar, N>& solver,
+                                            GyroCalibration<Scalar>& out) const {
+  if (!succeeded(out.status)) return out.status;
+  const Vector3<Scalar> sb = out.sigma.template tail<3>();
+  AccelCovariance cov_a;
+  int i = 0;
+  for (int c = 0; c < kAccelParams; ++c)
+    for (int r = c; r < kAccelParams; ++r) cov_a(r, c) = cov_a(c, r) = cov_a_[i++];
+  Eigen::Matrix<Scalar, N, 1> extra = Eigen::Matrix<Scalar, N, 1>::Zero();
+  // Column k of H^-1 is its row k: x_k = (H^-1 A)_k, extra_k = x_k Cov x_k^T.
+  const Status s = solver.normal_equations().inverse_columns(
+      Scalar(1), [&](int k, const Eigen::Matrix<Scalar, N, 1>& column) {
+        Scalar xa[kAccelParams] = {};
+        Scalar xb[3] = {};
+        for (int j = 0; j < N; ++j) {
+          for (int q = 0; q < kAccelParams; ++q) xa[q] += column(j) * s_.a(j, q);
+          if constexpr (N == kGyroMatrixParams)
+            for (int q = 0; q < 3; ++q) xb[q] += column(j) * s_.hb(j, q);
+        }
+        Scalar e = Scalar(0);
+        for (int r = 0; r < kAccelParams; ++r)
+          for (int c = 0; c < kAccelParams; ++c) e += xa[r] * cov_a(r, c) * xa[c];
+        for (int q = 0; q < 3; ++q) e += xb[q] * xb[q] * sb(q) * sb(q);
+        extra(k) = e;
+      });
+  if (s != Status::kOk) return s;
+  for (int k = 0; k < N; ++k) {
+    if (!(extra(k) >= Scalar(0)) || !std::isfinite(extra(k))) return Status::kIllConditioned;
+    out.sigma(k) = std::sqrt(out.sigma(k) * out.sigma(k) + extra(k));
+  }
+  for (int k = 0; k < N; ++k)
+    if (!(gyro_normalised_sigma<Scalar>(out.params, out.sigma, k) <=
+          solver.settings().max_normalised_sigma))
+      return Status::kUnobservable;
+  return Status::kOk;
+}
+
 template class GyroSolver<float, kGyroMatrixParams>;
 template class GyroSolver<float, kGyroParams>;
 template class GyroSolver<double, kGyroMatrixParams>;
 template class GyroSolver<double, kGyroParams>;
+template void GyroInputUncertainty<float>::start<kGyroMatrixParams>(
+    const GyroSolver<float, kGyroMatrixParams>&,
+    const GyroInputUncertainty<float>::AccelCovariance&);
+template Status GyroInputUncertainty<float>::step<kGyroMatrixParams>(
+    const GyroSolver<float, kGyroMatrixParams>&, const AccelVector<float>&, PoseSpan<float>, int);
+template Status GyroInputUncertainty<float>::finish<kGyroMatrixParams>(
+    const GyroSolver<float, kGyroMatrixParams>&, GyroCalibration<float>&) const;
+template void GyroInputUncertainty<float>::start<kGyroParams>(
+    const GyroSolver<float, kGyroParams>&, const GyroInputUncertainty<float>::AccelCovariance&);
+template Status GyroInputUncertainty<float>::step<kGyroParams>(
+    const GyroSolver<float, kGyroParams>&, const AccelVector<float>&, PoseSpan<float>, int);
+template Status GyroInputUncertainty<float>::finish<kGyroParams>(
+    const GyroSolver<float, kGyroParams>&, GyroCalibration<float>&) const;
+template void GyroInputUncertainty<double>::start<kGyroMatrixParams>(
+    const GyroSolver<double, kGyroMatrixParams>&,
+    const GyroInputUncertainty<double>::AccelCovariance&);
+template Status GyroInputUncertainty<double>::step<kGyroMatrixParams>(
+    const GyroSolver<double, kGyroMatrixParams>&, const AccelVector<double>&, PoseSpan<double>,
+    int);
+template Status GyroInputUncertainty<double>::finish<kGyroMatrixParams>(
+    const GyroSolver<double, kGyroMatrixParams>&, GyroCalibration<double>&) const;
+template void GyroInputUncertainty<double>::start<kGyroParams>(
+    const GyroSolver<double, kGyroParams>&, const GyroInputUncertainty<double>::AccelCovariance&);
+template Status GyroInputUncertainty<double>::step<kGyroParams>(
+    const GyroSolver<double, kGyroParams>&, const AccelVector<double>&, PoseSpan<double>, int);
+template Status GyroInputUncertainty<double>::finish<kGyroParams>(
+    const GyroSolver<double, kGyroParams>&, GyroCalibration<double>&) const;
 
 }  // namespace imucal

@@ -359,11 +359,10 @@ class Calibrator {
       if (succeeded(calibration_.gyro.status) && start_input_uncertainty()) return Status::kRunning;
     } else {  // SolveStage::kGyroSigma
       const AccelVector<Scalar>& pa = calibration_.accel.params;
-      const auto dup = [&](int k) { return accel_direction_jacobian(pa, poses_[k].mean); };
       GyroInputUncertainty<Scalar>& u = solve_memory_.input_uncertainty();
       const int slice = settings_.gyro.segments_per_step;
-      Status s = settings_.gyro.refine_bias ? u.step(gyro_.twelve(), dup, slice)
-                                            : u.step(gyro_.nine(), dup, slice);
+      Status s = settings_.gyro.refine_bias ? u.step(gyro_.twelve(), pa, poses_.span(), slice)
+                                            : u.step(gyro_.nine(), pa, poses_.span(), slice);
       if (s == Status::kRunning) return s;
       if (s == Status::kOk)
         s = settings_.gyro.refine_bias ? u.finish(gyro_.twelve(), calibration_.gyro)

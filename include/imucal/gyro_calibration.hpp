@@ -27,6 +27,7 @@
 #include "imucal/gyro_segment.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "imucal/normal_equations.hpp"
+#include "imucal/pose_store.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {
@@ -110,11 +111,11 @@ class GyroProblem {
   // What the inputs held fixed do to the solution, sliced as accumulate_slice() (each pass costs
   // about one LM evaluation). Sums over the rows: a = J^T dr/dp_a, where the accelerometer's
   // parameters p_a move the gravity directions, dr/dp_a = e^T (R^T D_a - D_b) for the move from
-  // pose a to pose b, e the row's direction and D = dup(pose) = d(up)/dp_a (3 x 9); and
+  // pose a to pose b, e the row's direction and D = d(up)/dp_a (3 x 9) at the pose's raw mean
+  // (accel_direction_jacobian(); pa: the accelerometer's parameters, poses: its poses); and
   // hb = J_M^T J_b, the block of the information matrix that couples M to the bias.
-  template <class DUp>
-  Status sensitivity_slice(const Vector& p, const DUp& dup, Sensitivity& s,
-                           int max_segments) const {
+  Status sensitivity_slice(const Vector& p, const AccelVector<Scalar>& pa, PoseSpan<Scalar> poses,
+                           Sensitivity& s, int max_segments) const {
     static_assert(N == kGyroParams, "the pass needs the bias columns");
     if (!all_finite(p)) return Status::kNonFiniteInput;
     const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
@@ -135,7 +136,10 @@ class GyroProblem {
         if (budget-- <= 0) return Status::kRunning;
         advance<true>(data.segments[mv.first_segment + c.segment], m, cof, db, c, &s.rt);
       }
-      const Eigen::Matrix<Scalar, 3, kAccelParams> dr = s.rt * dup(mv.from_pose) - dup(mv.to_pose);
+      if (mv.from_pose >= poses.size || mv.to_pose >= poses.size) return Status::kInvalidArgument;
+      const Eigen::Matrix<Scalar, 3, kAccelParams> dr =
+          s.rt * accel_direction_jacobian(pa, poses[mv.from_pose].mean) -
+          accel_direction_jacobian(pa, poses[mv.to_pose].mean);
       Vector3<Scalar> e[2];
       tangent_basis(data.up[mv.to_pose], e[0], e[1]);
       for (const Vector3<Scalar>& ei : e) {
@@ -361,64 +365,20 @@ class GyroInputUncertainty {
 
   // solver: finished and usable; cov_a: the accelerometer's covariance in sensor units.
   template <int N>
-  void start(const GyroSolver<Scalar, N>& solver, const AccelCovariance& cov_a) {
-    full_.data = solver.problem().data;
-    int k = 0;
-    for (int c = 0; c < kAccelParams; ++c)
-      for (int r = c; r < kAccelParams; ++r) cov_a_[k++] = cov_a(r, c);
-    s_ = typename GyroProblem<Scalar, kGyroParams>::Sensitivity{};
-  }
+  void start(const GyroSolver<Scalar, N>& solver, const AccelCovariance& cov_a);
 
   // Folds at most max_segments segments: kRunning while moves remain, kOk when done. The same
-  // solver as start()'s; dup(pose): d(up)/dp_a of that pose's gravity direction
-  // (accel_direction_jacobian()).
-  template <int N, class DUp>
-  Status step(const GyroSolver<Scalar, N>& solver, const DUp& dup, int max_segments) {
-    Eigen::Matrix<Scalar, kGyroParams, 1> p = Eigen::Matrix<Scalar, kGyroParams, 1>::Zero();
-    p.template head<N>() = solver.parameters();  // db = 0 when the bias is held
-    return full_.sensitivity_slice(p, dup, s_, max_segments);
-  }
+  // solver as start()'s; pa and poses: the accelerometer's parameters and the poses the gyro's
+  // moves join (their raw means give each gravity direction's d(up)/dp_a).
+  template <int N>
+  Status step(const GyroSolver<Scalar, N>& solver, const AccelVector<Scalar>& pa,
+              PoseSpan<Scalar> poses, int max_segments);
 
   // Widens out.sigma (the solver's own finish(); with N = 9, out.sigma's bias entries are the
   // held bias's sigma) by what the pass found; kUnobservable if a widened sigma passes the
-  // solver's max_normalised_sigma. One column of H^-1 at a time, in plain loops: a 12 x 12 Eigen
-  // product would take the general path, which links malloc.
+  // solver's max_normalised_sigma.
   template <int N>
-  Status finish(const GyroSolver<Scalar, N>& solver, GyroCalibration<Scalar>& out) const {
-    if (!succeeded(out.status)) return out.status;
-    const Vector3<Scalar> sb = out.sigma.template tail<3>();
-    AccelCovariance cov_a;
-    int i = 0;
-    for (int c = 0; c < kAccelParams; ++c)
-      for (int r = c; r < kAccelParams; ++r) cov_a(r, c) = cov_a(c, r) = cov_a_[i++];
-    Eigen::Matrix<Scalar, N, 1> extra = Eigen::Matrix<Scalar, N, 1>::Zero();
-    // Column k of H^-1 is its row k: x_k = (H^-1 A)_k, extra_k = x_k Cov x_k^T.
-    const Status s = solver.normal_equations().inverse_columns(
-        Scalar(1), [&](int k, const Eigen::Matrix<Scalar, N, 1>& column) {
-          Scalar xa[kAccelParams] = {};
-          Scalar xb[3] = {};
-          for (int j = 0; j < N; ++j) {
-            for (int q = 0; q < kAccelParams; ++q) xa[q] += column(j) * s_.a(j, q);
-            if constexpr (N == kGyroMatrixParams)
-              for (int q = 0; q < 3; ++q) xb[q] += column(j) * s_.hb(j, q);
-          }
-          Scalar e = Scalar(0);
-          for (int r = 0; r < kAccelParams; ++r)
-            for (int c = 0; c < kAccelParams; ++c) e += xa[r] * cov_a(r, c) * xa[c];
-          for (int q = 0; q < 3; ++q) e += xb[q] * xb[q] * sb(q) * sb(q);
-          extra(k) = e;
-        });
-    if (s != Status::kOk) return s;
-    for (int k = 0; k < N; ++k) {
-      if (!(extra(k) >= Scalar(0)) || !std::isfinite(extra(k))) return Status::kIllConditioned;
-      out.sigma(k) = std::sqrt(out.sigma(k) * out.sigma(k) + extra(k));
-    }
-    for (int k = 0; k < N; ++k)
-      if (!(gyro_normalised_sigma<Scalar>(out.params, out.sigma, k) <=
-            solver.settings().max_normalised_sigma))
-        return Status::kUnobservable;
-    return Status::kOk;
-  }
+  Status finish(const GyroSolver<Scalar, N>& solver, GyroCalibration<Scalar>& out) const;
 
  private:
   GyroProblem<Scalar, kGyroParams> full_{};  // the twelve-parameter problem: the bias columns too
