@@ -117,25 +117,7 @@ class GyroProblem {
   Status sensitivity_slice(const Vector& p, const AccelVector<Scalar>& pa, PoseSpan<Scalar> poses,
                            Sensitivity& s, int max_segments) const {
     static_assert(N == kGyroParams, "the pass needs the bias columns");
-    if (!all_finite(p)) return Status::kNonFiniteInput;
-    const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
-    const Matrix3<Scalar> cof = GyroSegment<Scalar>::cofactor(m);
-    const Vector3<Scalar> db = data.bias_shift + p.template tail<3>();
-    Cursor& c = s.c;
-    int budget = max_segments;
-    while (c.move < data.move_count) {
-      const GyroMove& mv = data.moves[c.move];
-      if (!c.begun) {
-        c.v = data.up[mv.from_pose];
-        c.dv.setZero();
-        c.segment = 0;
-        c.begun = true;
-        s.rt.setIdentity();
-      }
-      for (; c.segment < mv.segments; ++c.segment) {
-        if (budget-- <= 0) return Status::kRunning;
-        advance<true>(data.segments[mv.first_segment + c.segment], m, cof, db, c, &s.rt);
-      }
+    return walk<true>(p, s.c, max_segments, &s.rt, [&](const GyroMove& mv) {
       if (mv.from_pose >= poses.size || mv.to_pose >= poses.size) return Status::kInvalidArgument;
       const Eigen::Matrix<Scalar, 3, kAccelParams> dr =
           s.rt * accel_direction_jacobian(pa, poses[mv.from_pose].mean) -
@@ -143,21 +125,29 @@ class GyroProblem {
       Vector3<Scalar> e[2];
       tangent_basis(data.up[mv.to_pose], e[0], e[1]);
       for (const Vector3<Scalar>& ei : e) {
-        const Vector j = parameter_row(p, Vector(ei.transpose() * c.dv));
+        const Vector j = parameter_row(p, Vector(ei.transpose() * s.c.dv));
         const Eigen::Matrix<Scalar, 1, kAccelParams> row = ei.transpose() * dr;
         s.a += j * row;
         s.hb += j.template head<kGyroMatrixParams>() * j.template tail<3>().transpose();
       }
-      if (!all_finite(s.a) || !all_finite(s.hb)) return Status::kNonFiniteInput;
-      c.begun = false;
-      ++c.move;
-    }
-    return Status::kOk;
+      return all_finite(s.a) && all_finite(s.hb) ? Status::kOk : Status::kNonFiniteInput;
+    });
   }
 
  private:
   template <bool kJacobian, class Acc>
   Status pass(const Vector& p, Acc* ne, Cursor& c, int max_segments) const {
+    return walk<kJacobian>(p, c, max_segments, nullptr, [&](const GyroMove& mv) {
+      return finish_move<kJacobian>(p, data.up[mv.to_pose], ne, c);
+    });
+  }
+
+  // Integrates the moves from the cursor on, at most max_segments segments (kRunning when the
+  // budget ends first), and calls end(move) at each move's end (its status: kOk to go on). With
+  // rotation, *rotation is R^T of the move so far.
+  template <bool kJacobian, class End>
+  Status walk(const Vector& p, Cursor& c, int max_segments, Matrix3<Scalar>* rotation,
+              const End& end) const {
     if (!all_finite(p)) return Status::kNonFiniteInput;
     const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
     const Matrix3<Scalar> cof = GyroSegment<Scalar>::cofactor(m);
@@ -171,12 +161,13 @@ class GyroProblem {
         c.dv.setZero();
         c.segment = 0;
         c.begun = true;
+        if (rotation != nullptr) rotation->setIdentity();
       }
       for (; c.segment < mv.segments; ++c.segment) {
         if (budget-- <= 0) return Status::kRunning;
-        advance<kJacobian>(data.segments[mv.first_segment + c.segment], m, cof, db, c);
+        advance<kJacobian>(data.segments[mv.first_segment + c.segment], m, cof, db, c, rotation);
       }
-      const Status s = finish_move<kJacobian>(p, data.up[mv.to_pose], ne, c);
+      const Status s = end(mv);
       if (s != Status::kOk) return s;
       c.begun = false;
       ++c.move;
