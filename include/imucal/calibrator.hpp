@@ -347,7 +347,7 @@ class Calibrator {
       return phase_ == Phase::kFailed ? calibration_status() : Status::kRunning;
     }
     if (stage_ == SolveStage::kGyro) {
-      const Status s = settings_.gyro.refine_bias ? gyro_.twelve().step() : gyro_.nine().step();
+      const Status s = gyro_.visit([](auto& g) { return g.step(); });
       if (s == Status::kRunning) return s;
       if (settings_.gyro.refine_bias) {
         gyro_.twelve().finish(calibration_.gyro);
@@ -361,12 +361,11 @@ class Calibrator {
       const AccelVector<Scalar>& pa = calibration_.accel.params;
       GyroInputUncertainty<Scalar>& u = solve_memory_.input_uncertainty();
       const int slice = settings_.gyro.segments_per_step;
-      Status s = settings_.gyro.refine_bias ? u.step(gyro_.twelve(), pa, poses_.span(), slice)
-                                            : u.step(gyro_.nine(), pa, poses_.span(), slice);
+      const Status s = gyro_.visit([&](auto& g) {
+        const Status st = u.step(g, pa, poses_.span(), slice);
+        return st == Status::kOk ? u.finish(g, calibration_.gyro) : st;
+      });
       if (s == Status::kRunning) return s;
-      if (s == Status::kOk)
-        s = settings_.gyro.refine_bias ? u.finish(gyro_.twelve(), calibration_.gyro)
-                                       : u.finish(gyro_.nine(), calibration_.gyro);
       if (s != Status::kOk) fail_gyro(s);
     }
     calibration_.quality = quality();
@@ -1302,12 +1301,9 @@ class Calibrator {
     data.up = up_;
     data.pose_count = poses_.size();
     if (rate_time_ > Scalar(0)) data.bias_shift = -rate_sum_ / rate_time_;
-    const Status s = settings_.gyro.refine_bias ? gyro_.twelve().start(data, b0_)
-                                                : gyro_.nine().start(data, b0_);
+    const Status s = gyro_.visit([&](auto& g) { return g.start(data, b0_); });
     if (s != Status::kRunning) {
-      calibration_.gyro = GyroCalibration<Scalar>{};
-      calibration_.gyro.status = s;
-      calibration_.gyro.moves = move_count_;
+      fail_gyro(s);
       calibration_.quality = quality();
       phase_ = Phase::kFailed;
     }
@@ -1324,20 +1320,16 @@ class Calibrator {
       return false;
     }
     GyroInputUncertainty<Scalar>& u = solve_memory_.make_input_uncertainty();
-    if (settings_.gyro.refine_bias)
-      u.start(gyro_.twelve(), cov_a);
-    else
-      u.start(gyro_.nine(), cov_a);
+    gyro_.visit([&](const auto& g) { u.start(g, cov_a); });
     stage_ = SolveStage::kGyroSigma;
     return true;
   }
 
   // The gyro's result refused for `why` (nothing of it is kept).
   void fail_gyro(Status why) {
-    const int moves = calibration_.gyro.moves;
     calibration_.gyro = GyroCalibration<Scalar>{};
     calibration_.gyro.status = why;
-    calibration_.gyro.moves = moves;
+    calibration_.gyro.moves = move_count_;
   }
 
   Status fail_accel() {
@@ -1594,6 +1586,11 @@ class Calibrator {
     }
     Gyro9& nine() { return u_.nine; }
     Gyro12& twelve() { return u_.twelve; }
+    // f(the solver that is there).
+    template <class F>
+    decltype(auto) visit(const F& f) {
+      return twelve_ ? f(u_.twelve) : f(u_.nine);
+    }
 
    private:
     void copy_from(const GyroSolvers& o) {
