@@ -409,27 +409,17 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
     obs = Status::kUnobservable;
   if (obs != Status::kOk) return out.status = obs;
 
-  // Back to sensor units: x = (a - centre) / scale and unit gravity, so
-  // s = s' g / scale, b = scale b' - centre, misalignments unchanged.
+  // Back to sensor units: b = scale b' - centre, the rest scaled (sensor_units()).
   const Scalar g = settings_.gravity;
   const Scalar k = problem_.scale;
-  AccelVector<Scalar> p = pn;
-  AccelVector<Scalar> sd = sdn;
-  for (int i = 0; i < 3; ++i) {
-    p(kScaleX + i) = pn(kScaleX + i) * g / k;
-    sd(kScaleX + i) = sdn(kScaleX + i) * g / k;
-    p(kBiasX + i) = k * pn(kBiasX + i) - problem_.centre(i);
-    sd(kBiasX + i) = k * sdn(kBiasX + i);
-  }
-  std::uint16_t weak = 0;
-  for (int i = 0; i < kAccelParams; ++i) {
-    if (problem_.held & (1u << i)) {
-      p(i) = Scalar(0);
-      sd(i) = Scalar(0);
-    } else if (sdn(i) > settings_.weak_normalised_sigma) {
+  const AccelVector<Scalar> units = sensor_units();
+  AccelVector<Scalar> p = units.cwiseProduct(pn);
+  const AccelVector<Scalar> sd = units.cwiseProduct(sdn);
+  for (int i = 0; i < 3; ++i) p(kBiasX + i) -= problem_.centre(i);
+  std::uint16_t weak = 0;  // a held parameter is 0, sigma 0 (sensor_units()), and not weak
+  for (int i = 0; i < kAccelParams; ++i)
+    if (!(problem_.held & (1u << i)) && sdn(i) > settings_.weak_normalised_sigma)
       weak = static_cast<std::uint16_t>(weak | (1u << i));
-    }
-  }
   Scalar sum_w = Scalar(0), sum_r2 = Scalar(0);
   for (int i = 0; i < problem_.poses.size; ++i) {
     const Vector3<Scalar> x = normalised(problem_.poses[i], problem_.centre, Scalar(1) / k);
@@ -457,6 +447,21 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   return out.status;
 }
 
+// What each normalised parameter is multiplied by in sensor units (x = (a - centre) / scale with
+// unit gravity): scales by g / scale, biases by scale (then less the centre), misalignments by 1,
+// a held parameter by 0.
+template <typename Scalar>
+AccelVector<Scalar> AccelSolver<Scalar>::sensor_units() const {
+  AccelVector<Scalar> d = AccelVector<Scalar>::Ones();
+  for (int i = 0; i < 3; ++i) {
+    d(kScaleX + i) = settings_.gravity / problem_.scale;
+    d(kBiasX + i) = problem_.scale;
+  }
+  for (int i = 0; i < kAccelParams; ++i)
+    if (problem_.held & (1u << i)) d(i) = Scalar(0);
+  return d;
+}
+
 template <typename Scalar>
 Status AccelSolver<Scalar>::covariance(
     Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const {
@@ -465,14 +470,7 @@ Status AccelSolver<Scalar>::covariance(
   Eigen::Matrix<Scalar, kAccelParams, kAccelParams> c;
   const Status s = lm_.normal_equations().covariance(c, sigma_factor(pn));
   if (s != Status::kOk) return s;
-  // The map to sensor units is diagonal (finish()): scales times g / scale, biases times scale.
-  AccelVector<Scalar> d = AccelVector<Scalar>::Ones();
-  for (int i = 0; i < 3; ++i) {
-    d(kScaleX + i) = settings_.gravity / problem_.scale;
-    d(kBiasX + i) = problem_.scale;
-  }
-  for (int i = 0; i < kAccelParams; ++i)
-    if (problem_.held & (1u << i)) d(i) = Scalar(0);
+  const AccelVector<Scalar> d = sensor_units();
   cov = d.asDiagonal() * c * d.asDiagonal();
   return all_finite(cov) ? Status::kOk : Status::kIllConditioned;
 }

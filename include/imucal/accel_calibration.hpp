@@ -110,6 +110,7 @@ class AccelSolver {
   int dof() const;
   Scalar chi2(const AccelVector<Scalar>& p) const;
   Scalar sigma_factor(const AccelVector<Scalar>& p) const;
+  AccelVector<Scalar> sensor_units() const;
 
   AccelSettings<Scalar> settings_;
   Problem problem_{};
