@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "imucal/accel_calibration.hpp"
 #include "imucal/levenberg_marquardt.hpp"
@@ -368,6 +369,13 @@ TEST(AccelNoiseModel, LongRestsMeetAFloorAndSigmaFollowsIt) {
   EXPECT_NEAR(floor_sum / kRuns, floor, 0.2 * floor);
 }
 
+// Twelve gravity directions, none between the x and y axes: alpha_yz is not determined.
+std::vector<Vector3<double>> no_pose_between_x_and_y() {
+  const double r = std::sqrt(0.5);
+  return {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1},  {0, 0, -1},
+          {r, 0, r}, {-r, 0, r}, {0, r, r}, {0, -r, r}, {r, 0, -r}, {0, r, -r}};
+}
+
 // No pose has gravity between the x and y axes: alpha_yz (which couples them) enters the norm
 // only at second order, and the poses do not determine it. It is held at 0 and named, never
 // reported with a small sigma; every other parameter is still within 4 sigma. (A held
@@ -378,10 +386,7 @@ TEST(AccelNoiseModel, LongRestsMeetAFloorAndSigmaFollowsIt) {
 // recording is solved.
 TEST(AccelNoiseModel, AnUndeterminedMisalignmentIsHeldAndNamed) {
   const sim::AccelSensorSpec spec = sim::AccelSensorSpec::raw_counts();
-  const double r = std::sqrt(0.5);
-  const Vector3<double> dirs[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
-                                  {0, 0, 1}, {0, 0, -1}, {r, 0, r},  {-r, 0, r},
-                                  {0, r, r}, {0, -r, r}, {r, 0, -r}, {0, r, -r}};
+  const std::vector<Vector3<double>> dirs = no_pose_between_x_and_y();
   int refused = 0;
   for (std::uint64_t seed = 0; seed < 20; ++seed) {
     sim::Random rng(6000 + seed);
@@ -424,10 +429,7 @@ TEST(AccelNoiseModel, AnUndeterminedMisalignmentIsHeldAndNamed) {
 // are 0.
 TEST(AccelNoiseModel, CovarianceMatchesSigmaAndHoldsTheHeld) {
   const sim::AccelSensorSpec spec = sim::AccelSensorSpec::raw_counts();
-  const double r = std::sqrt(0.5);
-  const Vector3<double> dirs[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
-                                  {0, 0, 1}, {0, 0, -1}, {r, 0, r},  {-r, 0, r},
-                                  {0, r, r}, {0, -r, r}, {r, 0, -r}, {0, r, -r}};
+  const std::vector<Vector3<double>> dirs = no_pose_between_x_and_y();
   int held_seen = 0;
   for (std::uint64_t seed = 0; seed < 4; ++seed) {
     sim::Random rng(6100 + seed);
