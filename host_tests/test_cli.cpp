@@ -31,6 +31,7 @@
 #include "imucal/sim/motion_sim.hpp"
 #include "imucal/sim/random.hpp"
 #include "input.hpp"
+#include "sample_store.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"
 
@@ -2207,6 +2208,118 @@ TEST(CliOutputs, AFailedWriteKeepsThePreviousFileAndSaysWhy) {
   ASSERT_EQ(::stat(json.c_str(), &st), 0);
   EXPECT_EQ(st.st_mode & 0777, 0640u);
   EXPECT_EQ(leftovers(), 0);
+}
+
+// --- Memory: the samples kept between passes ---------------------------------------------------
+
+Sample numbered_sample(long i) {
+  Sample s;
+  s.t = static_cast<double>(i) * 1e-3;
+  s.us = i * 1000;
+  for (int a = 0; a < 3; ++a) {
+    s.acc[a] = static_cast<double>(i + a);
+    s.gyro[a] = -static_cast<double>(i + a);
+    s.mag[a] = 0.5 * static_cast<double>(i);
+  }
+  s.temp = 20 + 1e-6 * static_cast<double>(i);
+  return s;
+}
+
+// A stream longer than the budget keeps every stride-th sample, in order, every field as given,
+// the stride doubling each time the budget is reached again; a file lets go of them all.
+TEST(SampleStore, ThinsAStreamAndLetsGoOfAFile) {
+  const std::size_t budget = 2 * SampleStore::kChunkBytes;  // 2 chunks of 12-double samples
+  const long per_chunk = static_cast<long>(SampleStore::kChunkBytes / sizeof(double) / 12);
+  SampleStore stream(budget, false, true, true);
+  const long n = 5 * per_chunk + 123;  // past the budget twice: every 4th kept
+  for (long i = 0; i < n; ++i) stream.add(numbered_sample(i));
+  EXPECT_TRUE(stream.kept());
+  EXPECT_EQ(stream.stride(), 4);
+  EXPECT_LE(stream.bytes(), budget);
+  long next = 0;
+  bool same = true;
+  stream.for_each([&](const Sample& s) {
+    const Sample want = numbered_sample(next);
+    same = same && s.t == want.t && s.us == want.us && s.temp == want.temp &&
+           std::memcmp(s.acc, want.acc, sizeof s.acc) == 0 &&
+           std::memcmp(s.gyro, want.gyro, sizeof s.gyro) == 0 &&
+           std::memcmp(s.mag, want.mag, sizeof s.mag) == 0;
+    next += 4;
+  });
+  EXPECT_TRUE(same);
+  EXPECT_EQ(next, 4 * static_cast<long>(stream.size()));
+  EXPECT_EQ(static_cast<long>(stream.size()), (n + 3) / 4);
+
+  SampleStore file(budget, true, false, false);
+  for (long i = 0; i < 4 * per_chunk; ++i) file.add(numbered_sample(i));
+  EXPECT_FALSE(file.kept());
+  EXPECT_EQ(file.stride(), 1);
+  EXPECT_EQ(file.bytes(), 0u);
+}
+
+// A long recording's page keeps, in each stretch of time, the least and the largest reading of
+// every axis (what the page draws), in order, and far fewer samples than were read.
+TEST(PageSamples, KeepsEachStretchsExtremesInOrder) {
+  const long n = 4 * PageSamples::kKeepAll;
+  PageSamples page(0, static_cast<double>(n - 1) * 1e-3, n);
+  sim::Random rng(5);
+  std::vector<double> low(PageSamples::kBuckets, HUGE_VAL), high(PageSamples::kBuckets, -HUGE_VAL);
+  for (long i = 0; i < n; ++i) {
+    Sample s = numbered_sample(i);
+    s.acc[1] = rng.normal();
+    const auto b = static_cast<std::size_t>(std::min<long>(
+        static_cast<long>(s.t / (static_cast<double>(n - 1) * 1e-3) * PageSamples::kBuckets),
+        PageSamples::kBuckets - 1));
+    low[b] = std::min(low[b], s.acc[1]);
+    high[b] = std::max(high[b], s.acc[1]);
+    page.add(s);
+  }
+  const std::vector<Sample> kept = page.take();
+  EXPECT_LT(kept.size(), static_cast<std::size_t>(n) / 2);
+  std::vector<double> kept_low(PageSamples::kBuckets, HUGE_VAL),
+      kept_high(PageSamples::kBuckets, -HUGE_VAL);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    if (i > 0) {
+      ASSERT_LT(kept[i - 1].us, kept[i].us);
+    }
+    const auto b = static_cast<std::size_t>(std::min<long>(
+        static_cast<long>(kept[i].t / (static_cast<double>(n - 1) * 1e-3) * PageSamples::kBuckets),
+        PageSamples::kBuckets - 1));
+    kept_low[b] = std::min(kept_low[b], kept[i].acc[1]);
+    kept_high[b] = std::max(kept_high[b], kept[i].acc[1]);
+  }
+  EXPECT_EQ(kept_low, low);
+  EXPECT_EQ(kept_high, high);
+}
+
+// A file whose samples do not fit in --memory is read again for each pass after the first (here
+// the temperature passes and the statistics over the rests): the same calibration, poses,
+// statistics and page to the last digit as with every sample kept.
+TEST(CliMemory, AFileLongerThanTheMemoryIsReadAgainToTheSameResult) {
+  const std::string csv = temp_path("long.csv"), json_kept = temp_path("long_kept.json"),
+                    json_read = temp_path("long_read.json"), svg_kept = temp_path("long_kept.svg"),
+                    svg_read = temp_path("long_read.svg");
+  // 1 kHz with temperature and magnetometer: 131,069 samples of 12 numbers, 12.6 MB kept.
+  ASSERT_EQ(simulate_command({"--seed", "7", "--rate", "1000", "-o", csv}), 0);
+  const CommandRun kept = run_calibrate({csv, "--svg", svg_kept}, json_kept);
+  const CommandRun read = run_calibrate({csv, "--memory", "4", "--svg", svg_read}, json_read);
+  ASSERT_EQ(kept.code, 0) << kept.out;
+  EXPECT_EQ(read.code, 0) << read.out;
+  EXPECT_EQ(kept.json["input"]["reads"], 1);
+  const int passes = kept.json["temperature"]["passes"].get<int>();
+  EXPECT_GE(passes, 1);
+  EXPECT_EQ(read.json["input"]["reads"], passes + 2) << read.out;  // first, temperature, rests
+  EXPECT_EQ(read.json["input"]["kept_every"], 1);
+  Json a = kept.json, b = read.json;
+  a["input"].erase("reads");
+  b["input"].erase("reads");
+  EXPECT_EQ(b["configuration"]["memory_mb"], 4);
+  a["configuration"].erase("memory_mb");
+  b["configuration"].erase("memory_mb");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(read_binary(svg_kept), read_binary(svg_read));
+  for (const std::string& f : {csv, json_kept, json_read, svg_kept, svg_read})
+    std::remove(f.c_str());
 }
 
 }  // namespace

@@ -1,11 +1,13 @@
 // tools/imucal/calibrate.cpp: `imucal calibrate` and `imucal report`: the recording through the
 // same streaming calibrator as on the device (float, or double with --double), then the
 // residuals before and after, the summary, and the requested outputs.
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <map>
 #include <memory>
 #include <utility>
@@ -16,6 +18,7 @@
 #include "imucal/record.hpp"
 #include "imucal/temperature_fit.hpp"
 #include "outputs.hpp"
+#include "sample_store.hpp"
 
 namespace imucal::cli {
 
@@ -47,40 +50,6 @@ class ProgressLine {
  private:
   bool enabled_;
   bool shown_ = false;
-};
-
-// The device's 32-bit microsecond clock over the input's times: microseconds since the first
-// sample, wrapping as the device's clock would. A step beyond kMaxStepUs either way (a logger's
-// clock jumping by days, or set back) is taken as exactly kMaxStepUs: past the calibrator's gap
-// limit, so a gap or a clock that went back, and the samples after it are timed from there
-// (a 1e9 s jump would otherwise leave every later time beyond what the clock can say).
-class DeviceClock {
- public:
-  static constexpr double kMaxStepUs = 1e9;  // 1000 s: more than any gap limit, < 2^31 us
-
-  std::uint32_t operator()(double t) {
-    if (!started_) {
-      started_ = true;
-      base_t_ = t;
-    }
-    double us = (t - base_t_) * 1e6;
-    const double step = us - last_us_;
-    if (!(std::abs(step) <= kMaxStepUs)) {  // also a non-finite time (never from the readers)
-      base_us_ += last_us_ + (step > 0 ? kMaxStepUs : -kMaxStepUs);
-      base_t_ = t;
-      us = 0;
-    }
-    last_us_ = us;
-    const auto whole =
-        static_cast<std::int64_t>(std::llround(std::fmod(us + base_us_, 4294967296.0)));
-    return static_cast<std::uint32_t>(static_cast<std::uint64_t>(whole) & 0xffffffffu);
-  }
-
- private:
-  bool started_ = false;
-  double base_t_ = 0;   // input time (s) where the current stretch starts
-  double base_us_ = 0;  // the device's clock there (us, unwrapped)
-  double last_us_ = 0;  // the previous sample, us after base_t_
 };
 
 double accel_nominal_scale(const Options& o) {
@@ -177,7 +146,7 @@ double rms(const std::vector<double>& v) {
 template <typename Scalar>
 ImuSample<Scalar> imu_sample(const Sample& x) {
   ImuSample<Scalar> s;
-  s.t_us = x.t_us;
+  s.t_us = static_cast<std::uint32_t>(static_cast<std::uint64_t>(x.us) & 0xffffffffu);
   for (int a = 0; a < 3; ++a) {
     s.acc(a) = static_cast<Scalar>(x.acc[a]);
     s.gyro(a) = static_cast<Scalar>(x.gyro[a]);
@@ -221,29 +190,31 @@ bool saturated(const double v[3], double lo, double hi) {
 }
 
 // The readings with the model applied, raw + b(T) - b0 (the calibration then sees the biases at
-// T0); a sample without a temperature takes the nearest earlier one (the first one before it).
-// A saturated reading stays as it is (the calibrator must still see it saturated).
+// T0), one sample at a time in order; a sample without a temperature takes the nearest earlier
+// one (before the first, the recording's first). A saturated reading stays as it is (the
+// calibrator must still see it saturated).
 template <typename Scalar>
-void compensate(const std::vector<Sample>& raw, const TemperatureModel<Scalar>& m, const Options& o,
-                std::vector<Sample>& out) {
-  out = raw;
-  double temp = kNaN;
-  for (const Sample& x : raw)
-    if (std::isfinite(x.temp)) {
-      temp = x.temp;
-      break;
-    }
-  for (Sample& x : out) {
-    if (std::isfinite(x.temp)) temp = x.temp;
-    const Vector3<double> da = bias_change(m, m.accel, temp), dg = bias_change(m, m.gyro, temp);
-    const bool acc_sat = saturated(x.acc, o.accel_min, o.accel_max);
-    const bool gyro_sat = saturated(x.gyro, o.gyro_min, o.gyro_max);
+class Compensation {
+ public:
+  Compensation(const TemperatureModel<Scalar>& m, const Options& o, double first_temp)
+      : m_(m), o_(o), temp_(first_temp) {}
+  void operator()(Sample& x) {
+    if (std::isfinite(x.temp)) temp_ = x.temp;
+    const Vector3<double> da = bias_change(m_, m_.accel, temp_),
+                          dg = bias_change(m_, m_.gyro, temp_);
+    const bool acc_sat = saturated(x.acc, o_.accel_min, o_.accel_max);
+    const bool gyro_sat = saturated(x.gyro, o_.gyro_min, o_.gyro_max);
     for (int a = 0; a < 3; ++a) {
       if (!acc_sat) x.acc[a] += da(a);
       if (!gyro_sat) x.gyro[a] += dg(a);
     }
   }
-}
+
+ private:
+  TemperatureModel<Scalar> m_;
+  const Options& o_;
+  double temp_;
+};
 
 // The values one sensor's readings take, gathered as they are read: whether all are integers,
 // and their least and largest.
@@ -294,6 +265,49 @@ void infer_ranges(const IntegerRange& acc, const IntegerRange& gyro, bool has_gy
   if (has_gyro && o.gyro_unit == GyroUnit::kCounts && !std::isfinite(o.gyro_min))
     if (!gyro.format(o.gyro_min, o.gyro_max, o.gyro_range_inferred)) o.gyro_min = o.gyro_max = kNaN;
 }
+
+// The saturation limits of one sensor inferred in counts (no range given) are known only at the
+// end of the input. The first pass starts with the limits its first samples show (until one is
+// negative or beyond 32767, at most kPrefix of them) and counts, for each integer format, the
+// samples that format would have judged otherwise; the calibration is run again only if the
+// format found at the end judges some sample otherwise.
+struct RangeWatch {
+  static constexpr std::size_t kPrefix = 4096;
+  IntegerRange seen;
+  bool active = false;  // inferred (counts, no range given)
+  bool started = false;
+  double used_lo = kNaN, used_hi = kNaN;
+  long differs[3] = {0, 0, 0};  // int16, uint16, none
+
+  // Whether the readings so far can only be one integer format (or none).
+  bool settled() const { return !active || !seen.integers || seen.least < 0 || seen.most > 32767; }
+  // The limits to start with, into lo and hi (NaN: none): those of the readings so far.
+  void start(double& lo, double& hi) {
+    if (!active) return;
+    std::string name;
+    if (!seen.format(lo, hi, name)) lo = hi = kNaN;
+    used_lo = lo;
+    used_hi = hi;
+    started = true;
+  }
+  void add(const double v[3]) {
+    seen.add(v);
+    if (started) count(v);
+  }
+  void count(const double v[3]) {
+    if (!active) return;
+    const bool used = saturated(v, used_lo, used_hi);
+    differs[0] += saturated(v, -32768, 32767) != used;
+    differs[1] += saturated(v, 0, 65535) != used;
+    differs[2] += used;
+  }
+  // Whether the limits found at the end (lower limit lo; NaN: none) judge some sample otherwise
+  // than those used.
+  bool judged_otherwise(double lo) const {
+    if (!active) return false;
+    return differs[std::isnan(lo) ? 2 : lo < 0 ? 0 : 1] > 0;
+  }
+};
 
 const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
 const char* const kAxisNamesXyz[3] = {"x", "y", "z"};
@@ -392,13 +406,18 @@ MagSettings<Scalar> mag_settings(const Options& o) {
   return ms;
 }
 
+// The magnetometer's readings over one pose's window: their sum and count.
+struct MagWindow {
+  Vector3<double> sum = Vector3<double>::Zero();
+  long n = 0;
+};
+
 // Magnetometer: the fit of the samples held, then (with an accelerometer calibration) the
 // rotation into the accelerometer's frame from the poses (mean field over each pose's window
 // with the pose's mean acceleration). `accel` null: no accelerometer calibration.
 template <typename Scalar>
-void finish_magnetometer(MagCal<Scalar>& mag, const Options& o, const std::vector<Sample>& samples,
-                         const std::vector<std::size_t>& first_sample,
-                         const std::vector<std::size_t>& last_sample,
+void finish_magnetometer(MagCal<Scalar>& mag, const Options& o,
+                         const std::vector<MagWindow>& windows,
                          const AccelCalibration<Scalar>* accel, Run& run,
                          MagCalibration<Scalar>& mc) {
   MagResult& m = run.mag;
@@ -409,17 +428,9 @@ void finish_magnetometer(MagCal<Scalar>& mag, const Options& o, const std::vecto
   } else if (m.readings == 0) {
     m.status = "no magnetometer readings";
   } else {
-    for (std::size_t k = 0; k < first_sample.size(); ++k) {
-      Vector3<double> sum = Vector3<double>::Zero();
-      long n = 0;
-      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
-        const Sample& sm = samples[i];
-        if (!std::isfinite(sm.mag[0])) continue;
-        sum += Vector3<double>(sm.mag[0], sm.mag[1], sm.mag[2]);
-        ++n;
-      }
-      if (n == 0) continue;
-      const Vector3<double> mean_mag = sum / static_cast<double>(n);
+    for (std::size_t k = 0; k < windows.size(); ++k) {
+      if (windows[k].n == 0) continue;
+      const Vector3<double> mean_mag = windows[k].sum / static_cast<double>(windows[k].n);
       const Vector3<double> mean_acc(run.pose_list[k].mean[0], run.pose_list[k].mean[1],
                                      run.pose_list[k].mean[2]);
       mag.add_rest(mean_mag.cast<Scalar>(), mean_acc.cast<Scalar>());
@@ -487,16 +498,12 @@ void make_run_record(const Calibration<Scalar>& c, const MagCalibration<Scalar>*
   }
 }
 
-// A magnetometer alone (t, mx, my, mz, or no t): its fit, no alignment.
+// A magnetometer alone (t, mx, my, mz, or no t): its fit (the collector holds the readings), no
+// alignment.
 template <typename Scalar>
-int magnetometer_alone(const Options& o, const std::vector<Sample>& samples, Run& run) {
-  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
-  for (const Sample& x : samples)
-    if (std::isfinite(x.mag[0]))
-      mag->add(Vector3<Scalar>(static_cast<Scalar>(x.mag[0]), static_cast<Scalar>(x.mag[1]),
-                               static_cast<Scalar>(x.mag[2])));
+int magnetometer_alone(const Options& o, MagCal<Scalar>& mag, Run& run) {
   MagCalibration<Scalar> mc;
-  finish_magnetometer<Scalar>(*mag, o, samples, {}, {}, nullptr, run, mc);
+  finish_magnetometer<Scalar>(mag, o, {}, nullptr, run, mc);
   run.accel_status = run.gyro_status = "not in the input";
   run.temperature.present = false;
   run.temperature.status = "needs the accelerometer and the gyroscope";
@@ -639,64 +646,84 @@ void measured_noise(const Calibrator<Scalar>& cal, const Calibration<Scalar>& c,
   }
 }
 
-template <typename Scalar>
-int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
-                    std::vector<Sample>& samples) {
-  using Cal = Calibrator<Scalar>;
-  run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
-  run.format = reader.from_records()             ? "arrays"
-               : reader.format() == Format::kCsv ? "csv"
-                                                 : "imu_tk";
-  run.has_accel = reader.has_accelerometer();
-  run.has_gyro = reader.has_gyroscope();
-  run.has_mag = reader.has_magnetometer();
-  run.mode = !run.has_accel ? "magnetometer" : o.pose_file ? "poses" : "stream";
-  run.columns = reader.format() == Format::kImuTk ? "t x y z (two files)" : reader.column_names();
-  run.columns_source = reader.format() == Format::kImuTk ? "imu_tk" : reader.columns_source();
-  run.time_source = reader.format() == Format::kImuTk || reader.has_time() ? "t column"
-                    : o.nominal_rate_hz > 0                                ? "--rate"
-                                                                           : "none";
+// Opens the input again from its start with the same settings, for a pass after the first (empty:
+// it cannot be read again, a stream).
+using Reopen = std::function<bool(SampleReader&, Diagnostics&)>;
 
-  // The whole recording first (the saturation limits are inferred from all of it), then the
-  // calibrator over it, sample by sample as on the device.
-  ProgressLine progress(!o.quiet);
-  DeviceClock clock;
-  IntegerRange acc_range, gyro_range;
-  Record r;
-  while (reader.next(r, diag)) {
-    acc_range.add(r.acc);
-    gyro_range.add(r.gyro);
-    samples.push_back({r.t,
-                       clock(r.t),
-                       {r.acc[0], r.acc[1], r.acc[2]},
-                       {r.gyro[0], r.gyro[1], r.gyro[2]},
-                       r.temp,
-                       {r.mag[0], r.mag[1], r.mag[2]}});
-    if (!run.has_gyro)  // an accelerometer alone: the calibrator ignores the gyro readings
-      for (double& g : samples.back().gyro) g = 0;
-    if (std::isfinite(r.mag[0])) ++run.mag.readings;  // the reader gives all three axes or none
-    const auto n = static_cast<long>(samples.size());
-    if (n == 1024) {  // from a file of known size: room for all of it at once, not by doubling
-      const double read = reader.fraction_read();
-      if (read > 0 && read < 1)
-        samples.reserve(static_cast<std::size_t>(std::min(1.05 * 1024 / read + 1024, 1e9)));
+// The input's samples: read once as they come (next()), then as often again as the passes after
+// the first need them (again()): from the store while they fit in --memory, else from the file
+// read anew; a stream keeps every k-th sample instead (complete() false).
+class Input {
+ public:
+  Input(SampleReader& reader, Diagnostics& diag, const Reopen& reopen, const Options& o,
+        bool has_gyro)
+      : reader_(reader),
+        diag_(diag),
+        reopen_(reopen),
+        has_gyro_(has_gyro),
+        store_(static_cast<std::size_t>(o.memory_mb * 1048576.0), static_cast<bool>(reopen),
+               reader.has_temperature(), reader.has_magnetometer()) {}
+
+  bool next(Sample& s) {
+    Record r;
+    if (!reader_.next(r, diag_)) return false;
+    s = make_sample(r, clock_, has_gyro_);
+    store_.add(s);
+    if (++count_ == 1024) {  // a file's length says how many samples to expect
+      const double read = reader_.fraction_read();
+      if (read > 0 && read < 1) store_.expect(1024 / read);
     }
-    if (progress.due(n)) progress.show(n, reader.fraction_read());
+    return true;
   }
-  run.samples = static_cast<long>(samples.size());
-  run.lines_skipped = reader.lines_skipped();
-  if (samples.empty()) {
-    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
-    return 2;
+  // Every sample again, in order, to f(const Sample&); false (error()) if the file no longer
+  // gives the samples it gave.
+  template <class F>
+  bool again(F&& f) {
+    if (store_.kept()) {
+      store_.for_each(f);
+      return true;
+    }
+    SampleReader r;
+    Diagnostics d;
+    ++reads_;
+    if (!reopen_(r, d)) {
+      error_ = "the input could not be opened again: " +
+               (d.kept().empty() ? std::string("?") : d.kept()[0].text());
+      return false;
+    }
+    DeviceClock clock;
+    Record rec;
+    long n = 0;
+    while (n < count_ && r.next(rec, d)) {
+      f(static_cast<const Sample&>(make_sample(rec, clock, has_gyro_)));
+      ++n;
+    }
+    if (n != count_ || r.failed()) {
+      error_ =
+          format_text("the input changed while it was read (%ld samples, then %ld)", count_, n);
+      return false;
+    }
+    return true;
   }
-  run.t_first = samples.front().t;
-  run.t_last = samples.back().t;
-  if (samples.size() > 1 && run.time_source != "none")
-    run.rate_hz = static_cast<double>(samples.size() - 1) / (run.t_last - run.t_first);
-  if (run.has_accel) infer_ranges(acc_range, gyro_range, run.has_gyro, o);
-  if (run.mode == "magnetometer") return magnetometer_alone<Scalar>(o, samples, run);
-  if (run.mode == "poses") return pose_file<Scalar>(o, samples, run);
+  bool complete() const { return store_.stride() == 1; }  // again() gives every sample
+  long stride() const { return store_.stride(); }
+  int reads() const { return reads_; }
+  const std::string& error() const { return error_; }
 
+ private:
+  SampleReader& reader_;
+  Diagnostics& diag_;
+  const Reopen& reopen_;
+  bool has_gyro_;
+  SampleStore store_;
+  DeviceClock clock_;
+  long count_ = 0;
+  int reads_ = 1;
+  std::string error_;
+};
+
+template <typename Scalar>
+CalibratorSettings<Scalar> calibrator_settings(const Options& o, const Run& run) {
   CalibratorSettings<Scalar> cs;
   cs.has_gyro = run.has_gyro;
   cs.initial_rest_seconds = static_cast<Scalar>(o.initial_rest);
@@ -717,73 +744,234 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   const double zero = accel_nominal_zero(o);
   if (std::isfinite(zero))
     cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
-  auto cal = std::make_unique<Cal>(cs);  // 32 KB (float): on the heap of the host tool
-  // The magnetometer's collector (one rest per pose for the alignment) and the rests for the
-  // temperature model, one per pose as the calibrator hands them out.
-  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
-  std::vector<RestSummary<Scalar>> rests;
-  auto keep_rests = [&] {
-    while (static_cast<int>(rests.size()) < cal->poses().size) rests.push_back(cal->last_rest());
-  };
+  return cs;
+}
 
-  std::map<std::string, StreamEvent> events;
-  for (const Sample& x : samples) {
-    if (std::isfinite(x.mag[0]))
-      mag->add(Vector3<Scalar>(static_cast<Scalar>(x.mag[0]), static_cast<Scalar>(x.mag[1]),
-                               static_cast<Scalar>(x.mag[2])));
+// One pass of the streaming calibrator over the samples, as on the device: the rests it handed
+// out (one per pose, for the temperature model), each pose's window on the device's clock
+// (unwrapped), and what it said about the stream.
+template <typename Scalar>
+class CalibratorPass {
+ public:
+  CalibratorPass(const CalibratorSettings<Scalar>& cs, bool record_events)
+      : cal(std::make_unique<Calibrator<Scalar>>(cs)), record_events_(record_events) {}
+
+  void add(const Sample& x) {
+    now_ = x.us;
     const Status st = cal->add(imu_sample<Scalar>(x));
-    keep_rests();
-    if (st != Status::kOk) {
+    keep();
+    if (record_events_ && st != Status::kOk) {
       StreamEvent& e = events[to_string(st)];
       if (e.count++ == 0) e.first_t = x.t;
       e.status = to_string(st);
     }
   }
-  for (auto& kv : events) run.events.push_back(kv.second);
-
-  const Progress before_solve = cal->progress();
-  Status solved = cal->solve_all();
-  keep_rests();                                    // the rest open at the end became a pose
-  const StreamCounts sc = cal->progress().stream;  // of the readings as read
-  if (solved == Status::kTooFewPoses) {  // the rest open at the end is listed all the same
-    cal->end_stream();
-    keep_rests();
+  // The solve to its end; with `end_refused`, a solve refused for too few poses ends the stream
+  // so that the rest open at the end is listed all the same.
+  Status solve(bool end_refused) {
+    before_solve = cal->progress();
+    const Status solved = cal->solve_all();
+    keep();                           // the rest open at the end became a pose
+    stream = cal->progress().stream;  // of the readings as read
+    if (end_refused && solved == Status::kTooFewPoses) {
+      cal->end_stream();
+      keep();
+    }
+    return solved;
   }
+
+  std::unique_ptr<Calibrator<Scalar>> cal;  // 32 KB (float): on the heap of the host tool
+  std::vector<RestSummary<Scalar>> rests;
+  std::vector<std::array<std::int64_t, 2>> windows;  // first and last us of each pose
+  std::map<std::string, StreamEvent> events;
+  Progress before_solve{};
+  StreamCounts stream{};
+
+ private:
+  // A new pose's window, unwrapped from the device's 32-bit clock by the sample just given (a
+  // pose ends before the sample that closes it and lasts less than the clock's 71.6 minutes).
+  void keep() {
+    while (static_cast<int>(rests.size()) < cal->poses().size) {
+      const int i = static_cast<int>(rests.size());
+      rests.push_back(cal->last_rest());
+      auto unwrap = [&](std::uint32_t us) {
+        return now_ - static_cast<std::int64_t>(static_cast<std::uint32_t>(now_) - us);
+      };
+      windows.push_back({unwrap(cal->pose_begin_us(i)), unwrap(cal->pose_end_us(i))});
+    }
+  }
+  bool record_events_;
+  std::int64_t now_ = 0;
+};
+
+// What one pose's window holds: its first and last sample's time, the calibrated accelerometer's
+// per-sample residuals, the magnetometer's readings.
+struct WindowStats {
+  double t_begin = kNaN, t_end = kNaN;
+  long n = 0;
+  double sum = 0, sum_noise = 0;
+  MagWindow mag;
+};
+
+template <typename Scalar>
+int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diagnostics& diag,
+                    Run& run, std::vector<Sample>& page) {
+  using Pass = CalibratorPass<Scalar>;
+  run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
+  run.format = reader.from_records()             ? "arrays"
+               : reader.format() == Format::kCsv ? "csv"
+                                                 : "imu_tk";
+  run.has_accel = reader.has_accelerometer();
+  run.has_gyro = reader.has_gyroscope();
+  run.has_mag = reader.has_magnetometer();
+  run.mode = !run.has_accel ? "magnetometer" : o.pose_file ? "poses" : "stream";
+  run.columns = reader.format() == Format::kImuTk ? "t x y z (two files)" : reader.column_names();
+  run.columns_source = reader.format() == Format::kImuTk ? "imu_tk" : reader.columns_source();
+  run.time_source = reader.format() == Format::kImuTk || reader.has_time() ? "t column"
+                    : o.nominal_rate_hz > 0                                ? "--rate"
+                                                                           : "none";
+  const bool stream_mode = run.mode == "stream";
+  const bool want_page = !o.svg_path.empty();
+
+  // The first pass: every sample as it is read through the calibrator, sample by sample as on
+  // the device, and the magnetometer's collector; kept for the passes after it.
+  ProgressLine progress(!o.quiet);
+  Input in(reader, diag, reopen, o, run.has_gyro);
+  RangeWatch acc_range, gyro_range;
+  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
+  std::vector<Sample> pose_lines;  // a file of poses: one line each
+  std::unique_ptr<Pass> pass;
+  double first_temp = kNaN;  // before it, the samples take it (the temperature model)
+  long n = 0;
+  std::vector<Sample> prefix;  // the first samples, until their integer format shows
+  auto start_pass = [&] {
+    acc_range.start(o.accel_min, o.accel_max);
+    gyro_range.start(o.gyro_min, o.gyro_max);
+    pass = std::make_unique<Pass>(calibrator_settings<Scalar>(o, run), true);
+    for (const Sample& s : prefix) {
+      acc_range.count(s.acc);
+      gyro_range.count(s.gyro);
+      pass->add(s);
+    }
+    prefix = {};
+  };
+  Sample read;  // the sample just read
+  while (in.next(read)) {
+    if (n == 0) {
+      run.t_first = read.t;
+      acc_range.active =
+          run.has_accel && o.accel_unit == AccelUnit::kCounts && !std::isfinite(o.accel_min);
+      gyro_range.active = run.has_accel && run.has_gyro && o.gyro_unit == GyroUnit::kCounts &&
+                          !std::isfinite(o.gyro_min);
+    }
+    ++n;
+    run.t_last = read.t;
+    acc_range.add(read.acc);
+    gyro_range.add(read.gyro);
+    if (std::isfinite(read.mag[0])) {  // the reader gives all three axes or none
+      ++run.mag.readings;
+      mag->add(Vector3<Scalar>(static_cast<Scalar>(read.mag[0]), static_cast<Scalar>(read.mag[1]),
+                               static_cast<Scalar>(read.mag[2])));
+    }
+    if (!std::isfinite(first_temp) && std::isfinite(read.temp)) first_temp = read.temp;
+    if (run.mode == "poses") pose_lines.push_back(read);
+    if (pass) {
+      pass->add(read);
+    } else if (stream_mode) {
+      prefix.push_back(read);
+      if ((acc_range.settled() && gyro_range.settled()) || prefix.size() >= RangeWatch::kPrefix)
+        start_pass();
+    }
+    if (progress.due(n)) progress.show(n, reader.fraction_read());
+  }
+  if (stream_mode && !pass && n > 0) start_pass();
+  run.samples = n;
+  run.lines_skipped = reader.lines_skipped();
+  if (n == 0) {
+    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
+    return 2;
+  }
+  if (n > 1 && run.time_source != "none")
+    run.rate_hz = static_cast<double>(n - 1) / (run.t_last - run.t_first);
+  // The saturation limits as the whole input shows them (the first sample's until now).
+  if (acc_range.active) o.accel_min = o.accel_max = kNaN;
+  if (gyro_range.active) o.gyro_min = o.gyro_max = kNaN;
+  if (run.has_accel) infer_ranges(acc_range.seen, gyro_range.seen, run.has_gyro, o);
+  auto failed_again = [&] {
+    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, in.error()});
+    return 2;
+  };
+  auto page_from = [&](auto&& each) {
+    PageSamples pages(run.t_first, run.t_last, run.samples);
+    each(pages);
+    page = pages.take();
+  };
+  if (run.mode == "magnetometer") {
+    const int code = magnetometer_alone<Scalar>(o, *mag, run);
+    if (want_page) {
+      bool ok = true;
+      page_from([&](PageSamples& p) { ok = in.again([&](const Sample& s) { p.add(s); }); });
+      if (!ok) return failed_again();
+    }
+    return code;
+  }
+  if (run.mode == "poses") {
+    if (want_page) page = pose_lines;
+    return pose_file<Scalar>(o, pose_lines, run);
+  }
+
+  CalibratorSettings<Scalar> cs = calibrator_settings<Scalar>(o, run);
+  if (acc_range.judged_otherwise(o.accel_min) || gyro_range.judged_otherwise(o.gyro_min)) {
+    // The whole input shows another integer format than its first sample: again with its limits.
+    if (in.complete()) {
+      pass = std::make_unique<Pass>(cs, true);
+      if (!in.again([&](const Sample& s) { pass->add(s); })) return failed_again();
+    } else {
+      run.advice.push_back(
+          "the readings showed their integer format (and so where they saturate) only after "
+          "more of the input than --memory holds: saturation was judged by the first sample's. "
+          "Give --accel-range and --gyro-range, or the input as a file.");
+    }
+  }
+  run.kept_every = in.stride();
+  Status solved = pass->solve(true);
+  const Progress before_solve = pass->before_solve;
+  const StreamCounts sc = pass->stream;
+  for (auto& kv : pass->events) run.events.push_back(kv.second);
 
   // Temperature: the biases against the rests' temperatures, about this calibration. With a
   // usable part, the calibration runs again over the readings with the model applied (else it
   // absorbs part of the drift and the model, fitted about it, sees less than there is), and the
   // model is fitted again about the new calibration, until its slopes settle (0.1 sigma).
-  TemperatureModel<Scalar> tm;
+  TemperatureModel<Scalar> tm, tm_applied;  // the model fitted; the one the readings had applied
   bool have_tm = false;
   Status tm_status = Status::kNotStarted;
   TemperatureResult& tr = run.temperature;
   tr.present = reader.has_temperature();
   tr.order = o.temp_order;
-  std::vector<Sample> compensated;             // the readings the final calibration saw
-  const std::vector<Sample>* used = &samples;  // raw, or `compensated`
-  auto usable = [](const Calibration<Scalar>& x) {
-    return succeeded(x.accel.status) && succeeded(x.gyro.status);
+  auto usable = [](const Calibration<Scalar>& c) {
+    return succeeded(c.accel.status) && succeeded(c.gyro.status);
   };
-  if (tr.present && cal->calibration().has_temperature && usable(cal->calibration())) {
-    have_tm = fit_temperature(cal->calibration(), rests, o, tm, tm_status);
+  if (tr.present && pass->cal->calibration().has_temperature && usable(pass->cal->calibration())) {
+    have_tm = fit_temperature(pass->cal->calibration(), pass->rests, o, tm, tm_status);
     constexpr int kMaxPasses = 20;
-    for (int pass = 0; have_tm && pass < kMaxPasses; ++pass) {
+    if (have_tm && !in.complete())
+      run.advice.push_back(
+          "the calibration was not run again with the temperature model applied: the input "
+          "was longer than --memory holds and cannot be read again (stdin). Give it as a file.");
+    for (int k = 0; have_tm && in.complete() && k < kMaxPasses; ++k) {
       if (!succeeded(tm.accel.status) && !succeeded(tm.gyro.status)) break;
-      std::vector<Sample> next;
-      compensate(samples, tm, o, next);
-      auto cal2 = std::make_unique<Cal>(cs);
-      std::vector<RestSummary<Scalar>> rests2;
-      for (const Sample& x : next) {
-        cal2->add(imu_sample<Scalar>(x));
-        while (static_cast<int>(rests2.size()) < cal2->poses().size)
-          rests2.push_back(cal2->last_rest());
-      }
-      const Status solved2 = cal2->solve_all();
-      while (static_cast<int>(rests2.size()) < cal2->poses().size)
-        rests2.push_back(cal2->last_rest());
-      if (!usable(cal2->calibration())) break;
-      for (RestSummary<Scalar>& r2 : rests2) {  // back to raw means for the model
+      auto next = std::make_unique<Pass>(cs, false);
+      Compensation<Scalar> compensate(tm, o, first_temp);
+      if (!in.again([&](const Sample& raw) {
+            Sample y = raw;
+            compensate(y);
+            next->add(y);
+          }))
+        return failed_again();
+      const Status solved2 = next->solve(false);
+      if (!usable(next->cal->calibration())) break;
+      for (RestSummary<Scalar>& r2 : next->rests) {  // back to raw means for the model
         if (!r2.has_temperature) continue;
         const double temp = static_cast<double>(r2.temperature_c);
         r2.accel_mean -= bias_change(tm, tm.accel, temp).template cast<Scalar>();
@@ -791,7 +979,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
       }
       TemperatureModel<Scalar> tm2;
       Status st2 = Status::kNotStarted;
-      if (!fit_temperature(cal2->calibration(), rests2, o, tm2, st2)) break;
+      if (!fit_temperature(next->cal->calibration(), next->rests, o, tm2, st2)) break;
       double change = 0;
       for (const auto& [b_old, b_new] :
            {std::make_pair(&tm.accel, &tm2.accel), std::make_pair(&tm.gyro, &tm2.gyro)}) {
@@ -803,20 +991,19 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
               std::max(change, std::abs(static_cast<double>(b_new->b1(a) - b_old->b1(a))) / sd);
         }
       }
-      cal = std::move(cal2);
-      rests = std::move(rests2);
+      pass = std::move(next);
+      tm_applied = tm;
       tm = tm2;
       tm_status = st2;
       solved = solved2;
-      compensated = std::move(next);
-      used = &compensated;
-      tr.passes = pass + 1;
+      tr.passes = k + 1;
       if (change < 0.1) break;
     }
   }
-  const std::vector<Sample>& cal_samples = *used;
-  const Calibration<Scalar>& c = cal->calibration();
-  const Progress p = cal->progress();
+  const Calibrator<Scalar>& cal = *pass->cal;
+  const std::vector<RestSummary<Scalar>>& rests = pass->rests;
+  const Calibration<Scalar>& c = cal.calibration();
+  const Progress p = cal.progress();
   run.poses = p.poses;
   run.moves = p.moves;
   run.segments = p.segments;
@@ -848,7 +1035,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   run.gyro_bias_refined = c.gyro.bias_refined;
   run.quality = quality_name(c.quality);
   run.quality_level = static_cast<int>(c.quality);
-  run.quality_reason = cal->quality_reason();
+  run.quality_reason = cal.quality_reason();
   if (!run.has_gyro) run.gyro_status = "not in the input";
   run.usable = run.accel_ok && (run.gyro_ok || !run.has_gyro);
   advise(before_solve, p, o, run);
@@ -869,8 +1056,9 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
     run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
     run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
   }
-  measured_noise<Scalar>(*cal, c, o, run);
+  measured_noise<Scalar>(cal, c, o, run);
   // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
+  const double zero = accel_nominal_zero(o);
   const double sa = accel_nominal_scale(o);
   run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);
   run.accel_nominal.fill(0.0);
@@ -883,27 +1071,15 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   run.gyro_nominal.fill(0.0);
   for (int a = 0; a < 3; ++a) {
     run.gyro_nominal[static_cast<std::size_t>(6 + a)] = sg;
-    run.gyro_nominal[static_cast<std::size_t>(9 + a)] = static_cast<double>(cal->gyro_bias0()(a));
+    run.gyro_nominal[static_cast<std::size_t>(9 + a)] = static_cast<double>(cal.gyro_bias0()(a));
   }
 
-  // Poses: times (unwrapped from the device's 32-bit microseconds), means, residuals.
+  // Poses: means and residuals; their times and per-sample statistics from the pass below.
   const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
   const AccelVector<double> pn = Eigen::Map<const AccelVector<double>>(run.accel_nominal.data());
-  // A pose's first and last samples carry its device timestamps: found by one forward scan
-  // (the 32-bit clock repeats every 71.6 minutes, so time differences alone would not do).
-  const PoseSpan<Scalar> poses = cal->poses();
-  std::vector<std::size_t> first_sample, last_sample;
-  std::size_t j = 0;
+  const PoseSpan<Scalar> poses = cal.poses();
   for (int i = 0; i < poses.size; ++i) {
-    while (j < samples.size() && samples[j].t_us != cal->pose_begin_us(i)) ++j;
-    const std::size_t b = std::min(j, samples.size() - 1);
-    while (j < samples.size() && samples[j].t_us != cal->pose_end_us(i)) ++j;
-    const std::size_t e = std::min(j, samples.size() - 1);
-    first_sample.push_back(b);
-    last_sample.push_back(e);
     PoseResult pr;
-    pr.t_begin = samples[b].t;
-    pr.t_end = samples[e].t;
     pr.samples = static_cast<int>(poses[i].samples);
     const Vector3<double> mean = poses[i].mean.template cast<double>();
     for (int a = 0; a < 3; ++a) pr.mean[a] = mean(a);
@@ -924,48 +1100,79 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
   run.accel_pose_rms_before = rms(before);
   run.accel_pose_rms_after = rms(after);
 
-  // Per sample over the pose windows: |g| - |a_cal|, and the scatter of |a_cal| about its pose's
-  // mean (the sensor's own noise, a floor no calibration goes below).
-  if (run.accel_ok) {
-    double sum = 0, sum_noise = 0;
-    long n = 0;
-    for (std::size_t k = 0; k < first_sample.size(); ++k) {
-      const double mean_norm = o.gravity - run.pose_list[k].residual_after;
-      for (std::size_t i = first_sample[k]; i <= last_sample[k]; ++i) {
-        const Sample& s = cal_samples[i];
-        const double norm = accel_apply(pa, Vector3<double>(s.acc[0], s.acc[1], s.acc[2])).norm();
-        sum += (o.gravity - norm) * (o.gravity - norm);
-        sum_noise += (norm - mean_norm) * (norm - mean_norm);
-        ++n;
-      }
+  // One more pass over the samples: each pose's window by the device's clock (its first and last
+  // sample's times, its magnetometer readings), per sample in the windows |g| - |a_cal| and the
+  // scatter of |a_cal| about its pose's mean (the sensor's own noise, a floor no calibration goes
+  // below), on the readings the calibration saw (with the temperature model applied, if it was);
+  // and the page's samples.
+  const std::vector<std::array<std::int64_t, 2>>& windows = pass->windows;
+  std::vector<WindowStats> stats(windows.size());
+  std::unique_ptr<Compensation<Scalar>> compensate;
+  if (tr.passes > 0) compensate = std::make_unique<Compensation<Scalar>>(tm_applied, o, first_temp);
+  std::unique_ptr<PageSamples> pages;
+  if (want_page) pages = std::make_unique<PageSamples>(run.t_first, run.t_last, run.samples);
+  std::size_t at = 0;  // the window a sample is in, or the next
+  const bool again = in.again([&](const Sample& raw) {
+    if (pages) pages->add(raw);
+    Sample y = raw;
+    if (compensate) (*compensate)(y);
+    for (; at < windows.size() && raw.us > windows[at][1]; ++at)
+      if (stats[at].n == 0) stats[at].t_begin = stats[at].t_end = raw.t;  // none kept in it
+    if (at == windows.size() || raw.us < windows[at][0]) return;
+    WindowStats& w = stats[at];
+    if (w.n++ == 0) w.t_begin = raw.t;
+    w.t_end = raw.t;
+    if (std::isfinite(raw.mag[0])) {
+      w.mag.sum += Vector3<double>(raw.mag[0], raw.mag[1], raw.mag[2]);
+      ++w.mag.n;
     }
-    if (n > 0) {
-      run.accel_sample_rms_after = std::sqrt(sum / static_cast<double>(n));
-      run.accel_noise_floor = std::sqrt(sum_noise / static_cast<double>(n));
+    if (run.accel_ok) {
+      const double mean_norm = o.gravity - run.pose_list[at].residual_after;
+      const double norm = accel_apply(pa, Vector3<double>(y.acc[0], y.acc[1], y.acc[2])).norm();
+      w.sum += (o.gravity - norm) * (o.gravity - norm);
+      w.sum_noise += (norm - mean_norm) * (norm - mean_norm);
     }
+  });
+  if (!again) return failed_again();
+  if (pages) page = pages->take();
+  double sum = 0, sum_noise = 0;
+  long in_windows = 0;
+  std::vector<MagWindow> mag_windows;
+  for (std::size_t i = 0; i < stats.size(); ++i) {
+    run.pose_list[i].t_begin = stats[i].t_begin;
+    run.pose_list[i].t_end = stats[i].t_end;
+    sum += stats[i].sum;
+    sum_noise += stats[i].sum_noise;
+    in_windows += stats[i].n;
+    mag_windows.push_back(stats[i].mag);
   }
+  if (run.accel_ok && in_windows > 0) {
+    run.accel_sample_rms_after = std::sqrt(sum / static_cast<double>(in_windows));
+    run.accel_noise_floor = std::sqrt(sum_noise / static_cast<double>(in_windows));
+  }
+  run.input_reads = in.reads();
 
   // Moves: the angle between carried and measured gravity, nominal and calibrated gyro model
   // (gravity directions from the calibrated accelerometer in both).
   if (run.accel_ok && run.has_gyro) {
-    const Vector3<double> b0 = cal->gyro_bias0().template cast<double>();
+    const Vector3<double> b0 = cal.gyro_bias0().template cast<double>();
     const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
     const GyroVector<double> pgn = Eigen::Map<const GyroVector<double>>(run.gyro_nominal.data());
     before.clear();
     after.clear();
-    for (int i = 0; i < cal->move_count(); ++i) {
-      const GyroMove& mv = cal->move(i);
+    for (int i = 0; i < cal.move_count(); ++i) {
+      const GyroMove& mv = cal.move(i);
       MoveResult m;
       m.from = mv.from_pose;
       m.to = mv.to_pose;
       m.segments = mv.segments;
       for (int k = 0; k < mv.segments; ++k)
-        m.duration += static_cast<double>(cal->segment(mv.first_segment + k).duration);
+        m.duration += static_cast<double>(cal.segment(mv.first_segment + k).duration);
       if (run.have_nominal_gyro)
-        m.angle_before = move_angle<Scalar>(*cal, mv, gyro_matrix<double>(pgn),
+        m.angle_before = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pgn),
                                             Vector3<double>::Zero(), run.pose_list);
       if (run.gyro_ok)
-        m.angle_after = move_angle<Scalar>(*cal, mv, gyro_matrix<double>(pg),
+        m.angle_after = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pg),
                                            Vector3<double>(pg.tail<3>() - b0), run.pose_list);
       before.push_back(m.angle_before);
       after.push_back(m.angle_after);
@@ -977,8 +1184,7 @@ int run_calibration(Options& o, SampleReader& reader, Diagnostics& diag, Run& ru
 
   MagCalibration<Scalar> mc;
   MagResult& m = run.mag;
-  finish_magnetometer<Scalar>(*mag, o, samples, first_sample, last_sample,
-                              run.accel_ok ? &c.accel : nullptr, run, mc);
+  finish_magnetometer<Scalar>(*mag, o, mag_windows, run.accel_ok ? &c.accel : nullptr, run, mc);
 
   // The temperature model as fitted above; the rests as raw means (the plots' points).
   for (const RestSummary<Scalar>& rs : rests) {
@@ -1084,13 +1290,22 @@ bool settle_options(SampleReader& reader, Options& o, std::string& error) {
 }
 
 // The calibration in float (the device's) or double, the diagnostics kept in the run.
-int calibrate_from(Options& o, SampleReader& reader, Diagnostics& diag, Run& run,
-                   std::vector<Sample>& samples) {
-  const int code = o.use_double ? run_calibration<double>(o, reader, diag, run, samples)
-                                : run_calibration<float>(o, reader, diag, run, samples);
+int calibrate_from(Options& o, SampleReader& reader, const Reopen& reopen, Diagnostics& diag,
+                   Run& run, std::vector<Sample>& page) {
+  const int code = o.use_double ? run_calibration<double>(o, reader, reopen, diag, run, page)
+                                : run_calibration<float>(o, reader, reopen, diag, run, page);
   run.diagnostic_count = static_cast<long>(diag.count());
   for (const Diagnostic& d : diag.kept()) run.diagnostics.push_back(d.text());
   return code;
+}
+
+// Files that can be read again from their start (not stdin, a pipe or a terminal).
+bool rereadable(const std::vector<std::string>& files) {
+  for (const std::string& f : files) {
+    struct stat st {};
+    if (f == "-" || stat(f.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  }
+  return !files.empty();
 }
 
 }  // namespace
@@ -1118,9 +1333,14 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   }
   Diagnostics diag;
   SampleReader reader;
-  reader.set_columns(o.columns);
-  if (o.pose_file) reader.set_headerless_columns("ax,ay,az");
-  if (!reader.open(o.files, o.format, diag)) {
+  const std::string columns = o.columns;
+  const bool pose_file = o.pose_file;
+  auto open = [&](SampleReader& r, Diagnostics& d) {
+    r.set_columns(columns);
+    if (pose_file) r.set_headerless_columns("ax,ay,az");
+    return r.open(o.files, o.format, d);
+  };
+  if (!open(reader, diag)) {
     print_diagnostics(diag);
     return 2;
   }
@@ -1128,10 +1348,18 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal: %s\n", error.c_str());
     return 2;
   }
+  Reopen reopen;
+  if (rereadable(o.files))
+    reopen = [&](SampleReader& r, Diagnostics& d) {
+      if (!open(r, d)) return false;
+      r.set_time_unit(o.time_unit);
+      r.set_rate(o.nominal_rate_hz);
+      return true;
+    };
 
   Run run;
-  std::vector<Sample> samples;
-  const int code = calibrate_from(o, reader, diag, run, samples);
+  std::vector<Sample> page;  // the samples the page draws
+  const int code = calibrate_from(o, reader, reopen, diag, run, page);
   print_diagnostics(diag);
   if (run.samples == 0) return 2;
   if (reader.failed()) {
@@ -1165,7 +1393,7 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     }
   }
   if (!o.svg_path.empty())
-    written = write_text_file(o.svg_path, report_svg(run, o, samples)) && written;
+    written = write_text_file(o.svg_path, report_svg(run, o, page)) && written;
   if (!o.truth_path.empty()) written = compare_with_truth(run, o.truth_path, summary) && written;
 
   if (!written) return 2;
@@ -1194,8 +1422,8 @@ int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> r
   o.quiet = true;
   if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
   Run run;
-  std::vector<Sample> samples;
-  const int code = calibrate_from(o, reader, diag, run, samples);
+  std::vector<Sample> page;
+  const int code = calibrate_from(o, reader, Reopen(), diag, run, page);
   if (run.samples == 0) {
     out.error = "no samples";
     return 2;

@@ -67,6 +67,9 @@ Options (calibrate, report):
                                   accelerometer alone, solved from the poses
   --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
   --double                        run the double-precision reference instead of float
+  --memory MB                     the memory the samples are kept in between passes (default
+                                  256): beyond it a file is read again, and stdin keeps every
+                                  k-th sample (the summary says which)
 
 Magnetometer (mx, my, mz; m_cal = S (m_raw + h), h added, S in uT per raw unit):
   --mag-unit counts|ut|nt|gauss   raw magnetometer unit (default ut)

@@ -46,6 +46,7 @@ constexpr Key kKeys[] = {
     {"no-mag-align", true, Where::kCommandLineOnly},
     {"refine-gyro-bias", true, Where::kCommandLineOnly},
     {"double", true, Where::kCommandLineOnly},
+    {"memory", false, Where::kCommandLineOnly},
     {"quiet", true, Where::kCommandLineOnly},
     {"json", false, Where::kCommandLineOnly},
     {"header", false, Where::kCommandLineOnly},
@@ -160,6 +161,12 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     return range(key, value, o.gyro_min, o.gyro_max, error);
   } else if (key == "rate") {
     return positive(key, value, o.nominal_rate_hz, error);
+  } else if (key == "memory") {
+    if (!positive(key, value, o.memory_mb, error)) return false;
+    if (o.memory_mb < 4 || o.memory_mb > 1048576) {
+      error = "--memory: " + value + " MB is outside 4 .. 1048576";
+      return false;
+    }
   } else if (key == "columns") {
     std::vector<Field> names;
     split_fields(value, names);

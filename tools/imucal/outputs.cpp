@@ -206,6 +206,14 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
     std::fprintf(out, "input    %s (%s): %ld samples, %.1f s, %.1f Hz; %ld lines skipped\n",
                  files.c_str(), run.format.c_str(), run.samples, run.t_last - run.t_first,
                  run.rate_hz, run.lines_skipped);
+  if (run.input_reads > 1)
+    std::fprintf(out, "         read %d times: its samples did not fit in --memory (%g MB)\n",
+                 run.input_reads, o.memory_mb);
+  if (run.kept_every > 1)
+    std::fprintf(out,
+                 "         longer than --memory (%g MB) holds: the passes after the first saw "
+                 "every %ld-th sample\n",
+                 o.memory_mb, run.kept_every);
   // Settings read from the input, one line per place they were found.
   std::string where, line;
   for (const std::string& s : o.from_files) {
@@ -566,6 +574,8 @@ std::string run_json(const Run& run, const Options& o) {
   input["t_last_s"] = run.t_last;
   input["rate_hz"] = number(run.rate_hz);
   input["lines_skipped"] = run.lines_skipped;
+  input["reads"] = run.input_reads;
+  input["kept_every"] = run.kept_every;
   input["diagnostics"] = run.diagnostics;
   input["diagnostic_count"] = run.diagnostic_count;
   Json events = Json::array();
@@ -613,6 +623,7 @@ std::string run_json(const Run& run, const Options& o) {
   config["mag_align"] = o.mag_align;
   config["temp_order"] = o.temp_order;
   config["temp_min_span_c"] = o.temp_min_span;
+  config["memory_mb"] = o.memory_mb;
   config["from_files"] = o.from_files;
   j["configuration"] = config;
 

@@ -57,7 +57,10 @@ struct Options {
   int temp_order = 1;
   double temp_min_span = 5;
   bool use_double = false;  // the double reference instead of float (device)
-  bool quiet = false;       // no progress display
+  // MB the samples may be kept in for the passes after the first; beyond it a file is read
+  // again and a stream keeps every k-th sample (SampleStore).
+  double memory_mb = 256;
+  bool quiet = false;  // no progress display
   std::string json_path, header_path, svg_path, truth_path, record_path;
   std::string kalibr_path;                     // `imucal noise --kalibr`: Kalibr's imu.yaml
   std::uint32_t device_id = 0, sensor_id = 0;  // for the record
@@ -67,10 +70,12 @@ struct Options {
 
 // One sample as read (input units, time in s from the file).
 struct Sample {
-  double t;
-  std::uint32_t t_us;  // the device's clock at this sample (see DeviceClock in calibrate.cpp)
-  double acc[3];
-  double gyro[3];
+  double t = 0;
+  // The device's clock at this sample in us, unwrapped (DeviceClock in sample_store.hpp); the
+  // device sees its low 32 bits.
+  std::int64_t us = 0;
+  double acc[3] = {0, 0, 0};
+  double gyro[3] = {0, 0, 0};
   double temp = kNaN;                  // deg C (NaN: none)
   double mag[3] = {kNaN, kNaN, kNaN};  // input units (NaN: none at this sample)
 };
@@ -165,6 +170,11 @@ struct Run {
   std::string columns_source;   // "header", "--columns", "columns= comment", "assumed"
   std::string time_source;      // "t column", "--rate", "none"
   long samples = 0, lines_skipped = 0;
+  // How many times the input was read (more than once when its samples did not fit in
+  // --memory), and which samples the passes after the first saw: every one (1), or, of a
+  // stream longer than --memory holds, every k-th.
+  int input_reads = 1;
+  long kept_every = 1;
   double t_first = 0, t_last = 0, rate_hz = 0;
   std::vector<std::string> diagnostics;  // the first ones, "file:line:column: message"
   long diagnostic_count = 0;
