@@ -8,6 +8,7 @@
   read again instead of kept) and every sample is counted.
 - An endless stdin of the same readings, with --memory 16: stopped after a few seconds, in which
   it has read far more than 16 MB of samples; its peak RSS stays under 16 MB + STREAM_OVER_MB.
+- `imucal noise` on the same endless stdin: its peak RSS stays under NOISE_BOUND_MB.
 The bounds are the README's.
 """
 import json
@@ -22,6 +23,7 @@ import time
 FILE_BOUND_MB = 40
 STREAM_MEMORY_MB = 16
 STREAM_OVER_MB = 40
+NOISE_BOUND_MB = 40
 
 
 def readings(recording):
@@ -83,36 +85,40 @@ def main():
         if not peak < FILE_BOUND_MB:
             failed.append(f"peak RSS {peak:.1f} MB on the file")
 
-    proc = subprocess.Popen([tool, "calibrate", "-", "--rate", "100", "--quiet", "--memory",
-                             str(STREAM_MEMORY_MB)], stdin=subprocess.PIPE,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    written = [0]
+    def endless(args, bound):
+        """The command on an endless stdin for 6 s: its peak RSS, or a failure."""
+        proc = subprocess.Popen([tool] + args, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        written = [0]
 
-    def feed():
-        try:
-            proc.stdin.write(head)
-            while True:
-                proc.stdin.write(block)
-                written[0] += len(block)
-        except (BrokenPipeError, ValueError, OSError):
-            pass
+        def feed():
+            try:
+                proc.stdin.write(head)
+                while True:
+                    proc.stdin.write(block)
+                    written[0] += len(block)
+            except (BrokenPipeError, ValueError, OSError):
+                pass
 
-    threading.Thread(target=feed, daemon=True).start()
-    time.sleep(6)
-    alive = proc.poll() is None
-    peak = vm_hwm_mb(proc.pid) if alive else float("nan")
-    proc.kill()
-    proc.wait()
-    samples = written[0] / len(block) * rows
-    print(f"stream: {written[0] / 1e6:.0f} MB written ({samples:.0f} samples, "
-          f"{samples * 64 / 1e6:.0f} MB as kept) in 6 s: peak RSS {peak:.1f} MB "
-          f"(bound {STREAM_MEMORY_MB + STREAM_OVER_MB})")
-    if not alive:
-        failed.append("the stream's run ended before it was stopped")
-    if not samples * 64 > 4 * STREAM_MEMORY_MB * 1e6:
-        failed.append("too little was read to reach --memory")
-    if not peak < STREAM_MEMORY_MB + STREAM_OVER_MB:
-        failed.append(f"peak RSS {peak:.1f} MB on the stream")
+        threading.Thread(target=feed, daemon=True).start()
+        time.sleep(6)
+        alive = proc.poll() is None
+        peak = vm_hwm_mb(proc.pid) if alive else float("nan")
+        proc.kill()
+        proc.wait()
+        samples = written[0] / len(block) * rows
+        print(f"{args[0]} on stdin: {written[0] / 1e6:.0f} MB written ({samples:.0f} samples, "
+              f"{samples * 64 / 1e6:.0f} MB as kept) in 6 s: peak RSS {peak:.1f} MB (bound {bound})")
+        if not alive:
+            failed.append(f"{args[0]}: the run ended before it was stopped")
+        if not samples * 64 > 4 * STREAM_MEMORY_MB * 1e6:
+            failed.append(f"{args[0]}: too little was read to reach --memory")
+        if not peak < bound:
+            failed.append(f"{args[0]}: peak RSS {peak:.1f} MB on the stream")
+
+    endless(["calibrate", "-", "--rate", "100", "--quiet", "--memory", str(STREAM_MEMORY_MB)],
+            STREAM_MEMORY_MB + STREAM_OVER_MB)
+    endless(["noise", "-", "--rate", "100"], NOISE_BOUND_MB)
 
     for f in failed:
         print("FAILED:", f)

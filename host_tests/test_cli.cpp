@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "allan_stream.hpp"
 #include "cli.hpp"
 #include "imucal/accel_model.hpp"
 #include "imucal/gyro_model.hpp"
@@ -2320,6 +2321,52 @@ TEST(CliMemory, AFileLongerThanTheMemoryIsReadAgainToTheSameResult) {
   EXPECT_EQ(read_binary(svg_kept), read_binary(svg_read));
   for (const std::string& f : {csv, json_kept, json_read, svg_kept, svg_read})
     std::remove(f.c_str());
+}
+
+// The streaming overlapping Allan variance against overlapping_allan's over the whole array, on
+// white noise with a random walk: below 2L samples the same estimator (to rounding); beyond, the
+// clusters' starts every b samples move each point by a small fraction of its 68 % interval; the
+// taus are the array's to 1/(2L).
+TEST(AllanStream, AgreesWithTheWholeArrayEstimator) {
+  const std::size_t n = 400000;
+  std::vector<double> data(3 * n);
+  sim::Random rng(11);
+  double walk[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t a = 0; a < 3; ++a) {
+      walk[a] += 2e-5 * rng.normal();
+      data[3 * i + a] = 100.0 + 0.01 * rng.normal() + walk[a];
+    }
+  AllanPoint<double> full[64], streamed[64];
+  int n_full = 0, n_streamed = 0;
+  ASSERT_EQ(overlapping_allan<double>(data.data(), n, 3, 1e-3, 8, full, 64, n_full), Status::kOk);
+  AllanStream stream(8);
+  for (std::size_t i = 0; i < n; ++i)
+    stream.add(Vector3<double>(data[3 * i], data[3 * i + 1], data[3 * i + 2]));
+  ASSERT_EQ(stream.finish(1e-3, streamed, 64, n_streamed), Status::kOk);
+  ASSERT_EQ(n_streamed, n_full);
+  double worst_exact = 0, worst_ci = 0;
+  for (int i = 0; i < n_full; ++i) {
+    const AllanPoint<double>&f = full[i], &s = streamed[i];
+    EXPECT_NEAR(s.tau, f.tau, f.tau / (2 * AllanStream::kL)) << i;
+    for (int a = 0; a < 3; ++a) {
+      if (f.m < 2 * AllanStream::kL) {
+        EXPECT_EQ(s.m, f.m);
+        EXPECT_EQ(s.count, f.count);
+        worst_exact = std::max(worst_exact, std::abs(s.avar(a) / f.avar(a) - 1));
+      } else {
+        const double half = 0.5 * (f.adev_hi(a) - f.adev_lo(a));
+        worst_ci = std::max(worst_ci, std::abs(s.adev()(a) - f.adev()(a)) / half);
+      }
+      EXPECT_NEAR(s.edf(a), f.edf(a), 0.01 * f.edf(a));
+    }
+  }
+  std::printf(
+      "full overlap: worst relative difference %.2e; strided: worst %.3f of the 68 %% "
+      "half-interval\n",
+      worst_exact, worst_ci);
+  EXPECT_LT(worst_exact, 1e-9);
+  EXPECT_LT(worst_ci, 0.1);
 }
 
 }  // namespace

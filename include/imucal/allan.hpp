@@ -311,6 +311,29 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
   return Status::kOk;
 }
 
+// The edf and the 68 % interval of overlapping estimates pts[0 .. count) (taus increasing) from n
+// samples. The noise type of each point comes from the slope across +-3 points (a factor ~2.4 in
+// tau each way at 8 per decade), never going back to a type of shorter taus (Q, N, B, K dominate
+// in that order as tau grows): a noisy slope at long taus must not pick white phase noise, whose
+// edf is ~n/2.
+template <typename Scalar>
+void set_overlapping_confidence(AllanPoint<Scalar>* pts, int count, std::size_t n) {
+  AllanNoise type[3] = {AllanNoise::kWhitePhase, AllanNoise::kWhitePhase, AllanNoise::kWhitePhase};
+  for (int i = 0; i < count; ++i) {
+    const int i0 = i >= 3 ? i - 3 : 0, i1 = i + 3 < count ? i + 3 : count - 1;
+    for (int a = 0; a < 3; ++a) {
+      Scalar mu = Scalar(-1);
+      if (i1 > i0 && pts[i0].avar(a) > Scalar(0) && pts[i1].avar(a) > Scalar(0)) {
+        mu = std::log(pts[i1].avar(a) / pts[i0].avar(a)) / std::log(pts[i1].tau / pts[i0].tau);
+      }
+      const AllanNoise t = noise_from_slope(mu);
+      if (t > type[a]) type[a] = t;
+      pts[i].edf(a) = overlapping_edf<Scalar>(n, pts[i].m, type[a]);
+    }
+    set_confidence(pts[i]);
+  }
+}
+
 // Overlapping Allan deviation of n samples taken every tau0 seconds at log-spaced cluster sizes
 // m = 1 .. n/10 (`per_decade` sizes per decade, each m at least one more than the last), into
 // out[0 .. n_out): tau, avar, edf (overlapping_edf, the noise type from the local slope to the
@@ -346,24 +369,7 @@ Status overlapping_allan(Get&& get, std::size_t n, Scalar tau0, int per_decade,
     const double next = std::floor(std::pow(10.0, static_cast<double>(i) / per_decade) + 0.5);
     m = next > static_cast<double>(m) ? static_cast<std::uint32_t>(next) : m + 1;
   }
-  // The noise type of each point from the slope across +-3 points (a factor ~2.4 in tau each
-  // way at 8 per decade), never going back to a type of shorter taus (Q, N, B, K dominate in
-  // that order as tau grows): a noisy slope at long taus must not pick white phase noise, whose
-  // edf is ~n/2.
-  AllanNoise type[3] = {AllanNoise::kWhitePhase, AllanNoise::kWhitePhase, AllanNoise::kWhitePhase};
-  for (int i = 0; i < count; ++i) {
-    const int i0 = i >= 3 ? i - 3 : 0, i1 = i + 3 < count ? i + 3 : count - 1;
-    for (int a = 0; a < 3; ++a) {
-      Scalar mu = Scalar(-1);
-      if (i1 > i0 && out[i0].avar(a) > Scalar(0) && out[i1].avar(a) > Scalar(0)) {
-        mu = std::log(out[i1].avar(a) / out[i0].avar(a)) / std::log(out[i1].tau / out[i0].tau);
-      }
-      const AllanNoise t = noise_from_slope(mu);
-      if (t > type[a]) type[a] = t;
-      out[i].edf(a) = overlapping_edf<Scalar>(n, out[i].m, type[a]);
-    }
-    set_confidence(out[i]);
-  }
+  set_overlapping_confidence(out, count, n);
   n_out = count;
   return status;
 }

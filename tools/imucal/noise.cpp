@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "allan_stream.hpp"
 #include "cli.hpp"
 #include "imucal/allan.hpp"
 #include "outputs.hpp"
@@ -19,6 +20,34 @@ namespace imucal::cli {
 namespace {
 
 using Json = nlohmann::ordered_json;
+
+// The intervals between samples in bins 0.1 % wide (1 ns .. 1e9 s), and the largest exactly:
+// how many exceed a bound known only at the end (to 0.1 %), in fixed memory.
+class IntervalHistogram {
+ public:
+  IntervalHistogram() : bins_(kBins, 0) {}
+  void add(double d) {
+    largest_ = std::max(largest_, d);
+    ++bins_[bin(d)];
+  }
+  long over(double bound) const {
+    long n = 0;
+    for (std::size_t k = bin(bound) + 1; k < kBins; ++k) n += bins_[k];
+    return n;
+  }
+  double largest() const { return largest_; }
+
+ private:
+  static constexpr std::size_t kBins = 41500;  // log(1e18) / log(1.001)
+  static std::size_t bin(double d) {
+    const double k = std::floor(std::log(d / 1e-9) / std::log(1.001));
+    return !(k >= 0)                             ? 0
+           : k >= static_cast<double>(kBins - 1) ? kBins - 1
+                                                 : static_cast<std::size_t>(k);
+  }
+  std::vector<long> bins_;
+  double largest_ = 0;
+};
 
 constexpr int kMaxTaus = 64;
 constexpr int kPerDecade = 8;
@@ -371,20 +400,34 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     return 2;
   }
 
-  std::vector<double> acc, gyro, t;
+  // One pass, in bounded memory whatever the length: the Allan variances as the samples come
+  // (AllanStream), the intervals in a histogram of 0.1 % bins (the mean is known only at the
+  // end).
+  AllanStream streams[2] = {AllanStream(kPerDecade), AllanStream(kPerDecade)};  // gyro, acc
+  IntervalHistogram intervals;
+  double t_first = 0, t_last = 0;
+  long n = 0;
   Record r;
   while (reader.next(r, diag)) {
-    t.push_back(r.t);
-    for (int a = 0; a < 3; ++a) {
-      acc.push_back(r.acc[a] * acc_scale);
-      gyro.push_back(r.gyro[a] * gyro_scale);
+    if (n > 0) intervals.add(r.t - t_last);
+    if (n == 0) t_first = r.t;
+    t_last = r.t;
+    ++n;
+    const Vector3<double> g(r.gyro[0] * gyro_scale, r.gyro[1] * gyro_scale, r.gyro[2] * gyro_scale);
+    const Vector3<double> a(r.acc[0] * acc_scale, r.acc[1] * acc_scale, r.acc[2] * acc_scale);
+    if ((has_gyro && !g.allFinite()) || (has_acc && !a.allFinite())) {
+      result.error =
+          format_text("%s: %s", has_gyro && !g.allFinite() ? "gyroscope" : "accelerometer",
+                      to_string(Status::kNonFiniteInput));
+      return 2;
     }
+    if (has_gyro) streams[0].add(g);
+    if (has_acc) streams[1].add(a);
   }
   if (reader.failed()) {
     result.error = format_text("the input could not be read to its end");
     return 2;
   }
-  const long n = static_cast<long>(t.size());
   if (n < 20) {
     result.error = format_text(
         "%ld samples: too few for an Allan deviation (20 at least; a "
@@ -392,20 +435,15 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
         n);
     return 2;
   }
-  const double duration = t.back() - t.front();
+  const double duration = t_last - t_first;
   const double dt = duration / static_cast<double>(n - 1);
   if (!(dt > 0) || !std::isfinite(dt)) {
     result.error = format_text("the time stamps do not advance");
     return 2;
   }
   // The Allan deviation assumes a constant interval: count the intervals far from it.
-  long gaps = 0;
-  double worst = 0;
-  for (long i = 1; i < n; ++i) {
-    const double d = t[static_cast<std::size_t>(i)] - t[static_cast<std::size_t>(i - 1)];
-    if (d > 1.5 * dt) ++gaps;
-    worst = std::max(worst, d);
-  }
+  const long gaps = intervals.over(1.5 * dt);
+  const double worst = intervals.largest();
 
   SensorNoise sensors[2];
   sensors[0].name = "gyroscope";
@@ -417,12 +455,10 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
   sensors[1].si = acc_si;
   sensors[1].unit = acc_si ? "m/s^2" : "counts";
   const bool present[2] = {has_gyro, has_acc};
-  const std::vector<double>* data[2] = {&gyro, &acc};
   for (int s = 0; s < 2; ++s) {
     if (!present[s]) continue;
     SensorNoise& sn = sensors[s];
-    const Status st = overlapping_allan<double>(data[s]->data(), static_cast<std::size_t>(n), 3, dt,
-                                                kPerDecade, sn.pts, kMaxTaus, sn.n_pts);
+    const Status st = streams[s].finish(dt, sn.pts, kMaxTaus, sn.n_pts);
     if (st != Status::kOk && st != Status::kCapacityExceeded) {
       result.error = format_text("%s: %s", sn.name, to_string(st));
       return 2;
