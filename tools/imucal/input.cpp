@@ -204,7 +204,7 @@ const char* decimal_fast(const char* p, const char* end, double& out) {
       p = q;
     }
   }
-  constexpr double kPow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+  static constexpr double kPow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                  1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
                                  1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
   if (m > (std::uint64_t{1} << 53) || exponent < -22 || exponent > 22) return nullptr;
