@@ -205,8 +205,8 @@ const char* decimal_fast(const char* p, const char* end, double& out) {
     }
   }
   static constexpr double kPow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                 1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-                                 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
   if (m > (std::uint64_t{1} << 53) || exponent < -22 || exponent > 22) return nullptr;
   const double v = static_cast<double>(m);
   const double x = exponent < 0 ? v / kPow10[-exponent] : v * kPow10[exponent];
