@@ -199,7 +199,14 @@ class Compensation {
   Compensation(const TemperatureModel<Scalar>& m, const Options& o, double first_temp)
       : m_(m), o_(o), temp_(first_temp) {}
   void operator()(Sample& x) {
+    note(x);
+    apply(x);
+  }
+  // The temperature of every sample, in order; the model applied to the ones that need it.
+  void note(const Sample& x) {
     if (std::isfinite(x.temp)) temp_ = x.temp;
+  }
+  void apply(Sample& x) const {
     const Vector3<double> da = bias_change(m_, m_.accel, temp_),
                           dg = bias_change(m_, m_.gyro, temp_);
     const bool acc_sat = saturated(x.acc, o_.accel_min, o_.accel_max);
@@ -830,7 +837,7 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.time_source = reader.format() == Format::kImuTk || reader.has_time() ? "t column"
                     : o.nominal_rate_hz > 0                                ? "--rate"
                                                                            : "none";
-  const bool stream_mode = run.mode == "stream";
+  const bool stream_mode = run.mode == "stream", pose_mode = run.mode == "poses";
   const bool want_page = !o.svg_path.empty();
 
   // The first pass: every sample as it is read through the calibrator, sample by sample as on
@@ -874,7 +881,7 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
                                static_cast<Scalar>(read.mag[2])));
     }
     if (!std::isfinite(first_temp) && std::isfinite(read.temp)) first_temp = read.temp;
-    if (run.mode == "poses") pose_lines.push_back(read);
+    if (pose_mode) pose_lines.push_back(read);
     if (pass) {
       pass->add(read);
     } else if (stream_mode) {
@@ -893,7 +900,7 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   }
   if (n > 1 && run.time_source != "none")
     run.rate_hz = static_cast<double>(n - 1) / (run.t_last - run.t_first);
-  // The saturation limits as the whole input shows them (the first sample's until now).
+  // The saturation limits as the whole input shows them (its first samples' until now).
   if (acc_range.active) o.accel_min = o.accel_max = kNaN;
   if (gyro_range.active) o.gyro_min = o.gyro_max = kNaN;
   if (run.has_accel) infer_ranges(acc_range.seen, gyro_range.seen, run.has_gyro, o);
@@ -901,35 +908,30 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     diag.add({o.files.empty() ? "" : o.files[0], 0, 0, in.error()});
     return 2;
   };
-  auto page_from = [&](auto&& each) {
-    PageSamples pages(run.t_first, run.t_last, run.samples);
-    each(pages);
-    page = pages.take();
-  };
   if (run.mode == "magnetometer") {
     const int code = magnetometer_alone<Scalar>(o, *mag, run);
     if (want_page) {
-      bool ok = true;
-      page_from([&](PageSamples& p) { ok = in.again([&](const Sample& s) { p.add(s); }); });
-      if (!ok) return failed_again();
+      PageSamples pages(run.t_first, run.t_last, run.samples);
+      if (!in.again([&](const Sample& s) { pages.add(s); })) return failed_again();
+      page = pages.take();
     }
     return code;
   }
-  if (run.mode == "poses") {
+  if (pose_mode) {
     if (want_page) page = pose_lines;
     return pose_file<Scalar>(o, pose_lines, run);
   }
 
   CalibratorSettings<Scalar> cs = calibrator_settings<Scalar>(o, run);
   if (acc_range.judged_otherwise(o.accel_min) || gyro_range.judged_otherwise(o.gyro_min)) {
-    // The whole input shows another integer format than its first sample: again with its limits.
+    // The whole input shows another integer format than its first samples: again with its limits.
     if (in.complete()) {
       pass = std::make_unique<Pass>(cs, true);
       if (!in.again([&](const Sample& s) { pass->add(s); })) return failed_again();
     } else {
       run.advice.push_back(
           "the readings showed their integer format (and so where they saturate) only after "
-          "more of the input than --memory holds: saturation was judged by the first sample's. "
+          "more of the input than --memory holds: saturation was judged by the first samples'. "
           "Give --accel-range and --gyro-range, or the input as a file.");
     }
   }
@@ -1114,8 +1116,7 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   std::size_t at = 0;  // the window a sample is in, or the next
   const bool again = in.again([&](const Sample& raw) {
     if (pages) pages->add(raw);
-    Sample y = raw;
-    if (compensate) (*compensate)(y);
+    if (compensate) compensate->note(raw);
     for (; at < windows.size() && raw.us > windows[at][1]; ++at)
       if (stats[at].n == 0) stats[at].t_begin = stats[at].t_end = raw.t;  // none kept in it
     if (at == windows.size() || raw.us < windows[at][0]) return;
@@ -1127,6 +1128,8 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
       ++w.mag.n;
     }
     if (run.accel_ok) {
+      Sample y = raw;
+      if (compensate) compensate->apply(y);
       const double mean_norm = o.gravity - run.pose_list[at].residual_after;
       const double norm = accel_apply(pa, Vector3<double>(y.acc[0], y.acc[1], y.acc[2])).norm();
       w.sum += (o.gravity - norm) * (o.gravity - norm);

@@ -560,11 +560,8 @@ std::string series_path(const Panel& p, const std::vector<Sample>& samples, cons
 
 // A time longer than any ordinary spacing of the samples read (the page may hold fewer): where
 // the recording has a hole.
-double gap_threshold(const Run& run, const std::vector<Sample>& samples, const TimeAxis& t) {
-  const double n = static_cast<double>(
-      std::max<std::size_t>(
-          {samples.size(), static_cast<std::size_t>(std::max(run.samples, 0L)), std::size_t{2}}) -
-      1);
+double gap_threshold(const Run& run, const TimeAxis& t) {
+  const double n = static_cast<double>(std::max(run.samples, 2L) - 1);
   return std::max(10 * (t.hi - t.lo) / n, 2 * (t.hi - t.lo) / kPlotWidth);
 }
 
@@ -753,7 +750,7 @@ double signal_section(Page& page, double y, double h, const Run& run,
   }
   if (have_values) {
     value_grid(page, p, unit);
-    const double gap = gap_threshold(run, samples, t);
+    const double gap = gap_threshold(run, t);
     for (int a = 0; a < 3; ++a) {
       auto value_of = [&](std::size_t i) { return gyro ? samples[i].gyro[a] : samples[i].acc[a]; };
       const std::string d = series_path(p, samples, value_of, gap);
@@ -819,7 +816,7 @@ double norm_section(Page& page, double y, const Run& run, const Options& options
     while (k < run.pose_list.size() && ts > run.pose_list[k].t_end) ++k;
     in_rest[i] = k < run.pose_list.size() && ts >= run.pose_list[k].t_begin;
   }
-  const double gap = gap_threshold(run, samples, t);
+  const double gap = gap_threshold(run, t);
   auto series = [&](const Panel& p, const AccelModel& model, const char* colour) {
     for (bool rest : {false, true}) {
       auto value_of = [&](std::size_t i) {
