@@ -21,6 +21,7 @@ AllanStream::AllanStream(int per_decade) {
       s.q = (m + b / 2) / b;
       s.m = s.q * b;
     }
+    s.inv_m = 1.0 / static_cast<double>(s.m);
     sizes_.push_back(s);
     const double next = std::floor(std::pow(10.0, static_cast<double>(i) / per_decade) + 0.5);
     m = next > static_cast<double>(m) ? static_cast<std::uint64_t>(next) : m + 1;
@@ -47,14 +48,13 @@ void AllanStream::push(Level& level, const double* hi, const double* lo) {
     if (e < 2 * s.q) continue;
     const std::size_t i2 = 3 * (e & mask), i1 = 3 * ((e - s.q) & mask),
                       i0 = 3 * ((e - 2 * s.q) & mask);
-    const double inv_m = 1.0 / static_cast<double>(s.m);
     for (std::size_t a = 0; a < 3; ++a) {
       // The later window's sum less the earlier's, hi and lo parts apart: mean difference.
       const double dh =
           (level.hi[i2 + a] - level.hi[i1 + a]) - (level.hi[i1 + a] - level.hi[i0 + a]);
       const double dl =
           (level.lo[i2 + a] - level.lo[i1 + a]) - (level.lo[i1 + a] - level.lo[i0 + a]);
-      const double d = (dh + dl) * inv_m;
+      const double d = (dh + dl) * s.inv_m;
       compensated_add(s.sum[a], s.lo[a], d * d);
     }
     ++s.count;

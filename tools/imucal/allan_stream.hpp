@@ -35,6 +35,7 @@ class AllanStream {
     std::uint64_t m;                               // cluster size, samples
     std::uint64_t q;                               // m / b: the lag in the level's ring
     int level;                                     // b = 2^level
+    double inv_m;                                  // 1 / m
     double sum[3] = {0, 0, 0}, lo[3] = {0, 0, 0};  // squared mean differences (compensated)
     std::uint64_t count = 0;
   };
