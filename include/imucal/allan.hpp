@@ -311,6 +311,13 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
   return Status::kOk;
 }
 
+// The log-spaced cluster sizes: the one after m, the i-th (i >= 1), is 10^(i / per_decade)
+// rounded, and at least m + 1.
+inline std::uint64_t next_cluster_size(std::uint64_t m, int i, int per_decade) {
+  const double next = std::floor(std::pow(10.0, static_cast<double>(i) / per_decade) + 0.5);
+  return next > static_cast<double>(m) ? static_cast<std::uint64_t>(next) : m + 1;
+}
+
 // The edf and the 68 % interval of overlapping estimates pts[0 .. count) (taus increasing) from n
 // samples. The noise type of each point comes from the slope across +-3 points (a factor ~2.4 in
 // tau each way at 8 per decade), never going back to a type of shorter taus (Q, N, B, K dominate
@@ -366,8 +373,7 @@ Status overlapping_allan(Get&& get, std::size_t n, Scalar tau0, int per_decade,
     const Status s = overlapping_avar_at<Scalar>(get, n, m, p.avar, p.count);
     if (s != Status::kOk) return s;
     out[count++] = p;
-    const double next = std::floor(std::pow(10.0, static_cast<double>(i) / per_decade) + 0.5);
-    m = next > static_cast<double>(m) ? static_cast<std::uint32_t>(next) : m + 1;
+    m = static_cast<std::uint32_t>(next_cluster_size(m, i, per_decade));
   }
   set_overlapping_confidence(out, count, n);
   n_out = count;

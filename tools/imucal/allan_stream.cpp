@@ -8,7 +8,7 @@
 namespace imucal::cli {
 
 AllanStream::AllanStream(int per_decade) {
-  // overlapping_allan's sizes, up to what a 32-bit cluster size holds.
+  // overlapping_allan's sizes (next_cluster_size), up to what a 32-bit cluster size holds.
   std::uint64_t m = 1;
   for (int i = 1; m < (std::uint64_t{1} << 32); ++i) {
     Size s;
@@ -23,8 +23,7 @@ AllanStream::AllanStream(int per_decade) {
     }
     s.inv_m = 1.0 / static_cast<double>(s.m);
     sizes_.push_back(s);
-    const double next = std::floor(std::pow(10.0, static_cast<double>(i) / per_decade) + 0.5);
-    m = next > static_cast<double>(m) ? static_cast<std::uint64_t>(next) : m + 1;
+    m = next_cluster_size(m, i, per_decade);
   }
   levels_.resize(static_cast<std::size_t>(sizes_.back().level) + 1);
   for (std::size_t k = 0; k < sizes_.size(); ++k)
