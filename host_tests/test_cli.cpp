@@ -592,7 +592,13 @@ TEST(CliInput, TheFastDecimalPathReadsAsFromChars) {
                                     "inf",
                                     "-inf",
                                     "1,5",
-                                    "0x10"};
+                                    "0x10",
+                                    "0.12345678901234567",
+                                    "123456789012.1234567",
+                                    "12345678901.12345678",
+                                    "1.2345678901234567890",
+                                    "0.00000000000000000000000001",
+                                    "3.10000000e+00"};
   const char* const kFormats[] = {"%.17g", "%.6g", "%.3f", "%.7e", "%.0f", "%.12f", "%.2e"};
   for (int i = 0; i < 200000; ++i) {
     const double magnitude = std::pow(10.0, rng.uniform(-12, 12));
@@ -603,6 +609,10 @@ TEST(CliInput, TheFastDecimalPathReadsAsFromChars) {
     if (i % 10 == 0)
       texts.push_back(std::to_string(static_cast<long long>(rng.uniform(-1e6, 1e6))));
   }
+  // Each again inside a line, followed by more: the digits are read eight bytes at a time where
+  // eight bytes remain, whatever follows them.
+  const std::size_t alone = texts.size();
+  for (std::size_t i = 0; i < alone; ++i) texts.push_back(texts[i] + (i % 2 ? "\t-12.5" : ",7"));
   std::size_t fast = 0;
   for (const std::string& text : texts) {
     const char* b = text.data();
