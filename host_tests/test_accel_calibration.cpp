@@ -8,12 +8,18 @@
 #include <Eigen/LU>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include "imucal/accel_calibration.hpp"
 #include "imucal/levenberg_marquardt.hpp"
 #include "support/gtest_status.hpp"
 #include "support/sim_poses.hpp"
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
 
 namespace imucal {
 namespace {
@@ -173,8 +179,7 @@ TEST(AccelCalibration, EfficiencyAgainstTheCramerRaoBound) {
       DoubleStore poses;
       for (int i = 0; i < kPoses; ++i) {
         const double sd = spec.noise / std::sqrt(static_cast<double>(n[i]));
-        poses.add(clean[i] + sd * Vector3<double>(noise.normal(), noise.normal(), noise.normal()),
-                  n[i]);
+        poses.add(clean[i] + sd * noise.normal3(), n[i]);
       }
       AccelCalibration<double> out;
       ASSERT_TRUE(succeeded(
@@ -347,7 +352,7 @@ TEST(AccelNoiseModel, LongRestsMeetAFloorAndSigmaFollowsIt) {
     DoubleStore poses;
     for (int i = 0; i < 24; ++i) {
       const auto n = static_cast<std::uint32_t>(i % 4 == 0 ? 5000 : 100 + rng.next() % 200);
-      const Vector3<double> offset(rng.normal(), rng.normal(), rng.normal());
+      const Vector3<double> offset = rng.normal3();
       const Vector3<double> m =
           sim::noisy_pose_mean(truth, spec, sim::random_direction(rng), n, rng) + floor * offset;
       poses.add(m, n, spec.noise * spec.noise);
@@ -562,8 +567,8 @@ TEST(AccelDegenerate, DuplicatePoses) {
 TEST(AccelDegenerate, NonFiniteReadingsAreRefusedAndNothingIsLost) {
   const test::SimulatedPoses sim = simulate_poses(sim::AccelSensorSpec::si(), 430, 12);
   DoubleStore store = sim.poses;
-  EXPECT_EQ(store.add(Vector3<double>(NAN, 0, 9.8), 100), Status::kNonFiniteInput);
-  EXPECT_EQ(store.add(Vector3<double>(0, INFINITY, 9.8), 100), Status::kNonFiniteInput);
+  EXPECT_EQ(store.add(Vector3<double>(kNaN, 0, 9.8), 100), Status::kNonFiniteInput);
+  EXPECT_EQ(store.add(Vector3<double>(0, kInf, 9.8), 100), Status::kNonFiniteInput);
   EXPECT_EQ(store.add(Vector3<double>(0, 0, 9.8), 0), Status::kInvalidArgument);
   EXPECT_EQ(store.size(), 12);
   AccelCalibration<double> out;
@@ -573,10 +578,10 @@ TEST(AccelDegenerate, NonFiniteReadingsAreRefusedAndNothingIsLost) {
   // Poses that bypass the store (a caller's own array) are checked by the solver as well.
   Pose<double> raw[12];
   for (int i = 0; i < 12; ++i) raw[i] = store[i];
-  raw[5].mean(2) = NAN;
+  raw[5].mean(2) = kNaN;
   EXPECT_EQ(calibrate_accelerometer(PoseSpan<double>{raw, 12}, settings_for<double>(9.8), out),
             Status::kNonFiniteInput);
-  raw[5].mean(2) = -INFINITY;
+  raw[5].mean(2) = -kInf;
   EXPECT_EQ(calibrate_accelerometer(PoseSpan<double>{raw, 12}, settings_for<double>(9.8), out),
             Status::kNonFiniteInput);
   expect_no_nan(out);
@@ -598,7 +603,7 @@ TEST(AccelDegenerate, BadSettings) {
   s.gravity = -1.0;
   AccelCalibration<double> out;
   EXPECT_EQ(calibrate_accelerometer(sim.poses.span(), s, out), Status::kInvalidArgument);
-  s.gravity = NAN;
+  s.gravity = kNaN;
   EXPECT_EQ(calibrate_accelerometer(sim.poses.span(), s, out), Status::kInvalidArgument);
   expect_no_nan(out);
 }

@@ -107,9 +107,11 @@ TEST(Calibrator, FullMotionWithoutANominalGyroScale) {
       ++values;
     };
     for (int k = 0; k < kAccelParams; ++k)
-      add(c.accel.params(k), rec.acc.params(k), c.accel.sigma(k));
+      add(static_cast<double>(c.accel.params(k)), rec.acc.params(k),
+          static_cast<double>(c.accel.sigma(k)));
     for (int k = 0; k < kGyroParams; ++k)
-      add(c.gyro.params(k), rec.gyro.params(k), c.gyro.sigma(k));
+      add(static_cast<double>(c.gyro.params(k)), rec.gyro.params(k),
+          static_cast<double>(c.gyro.sigma(k)));
     std::printf("no nominal scale, seed %llu: %d segments after %d coarsenings\n",
                 static_cast<unsigned long long>(seed), p.segments, p.coarsenings);
   }

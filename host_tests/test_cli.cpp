@@ -602,7 +602,8 @@ TEST(CliInput, TheFastDecimalPathReadsAsFromChars) {
   const char* const kFormats[] = {"%.17g", "%.6g", "%.3f", "%.7e", "%.0f", "%.12f", "%.2e"};
   for (int i = 0; i < 200000; ++i) {
     const double magnitude = std::pow(10.0, rng.uniform(-12, 12));
-    const double v = (rng.uniform() < 0.5 ? -1 : 1) * magnitude * rng.uniform();
+    const double sign = rng.uniform() < 0.5 ? -1 : 1;
+    const double v = sign * magnitude * rng.uniform();
     char buf[64];
     std::snprintf(buf, sizeof buf, kFormats[i % 7], v);
     texts.push_back(buf);
@@ -681,10 +682,12 @@ TEST(CliInput, ImuTkFilesFromDiskReadAsFromMemory) {
   for (int i = 0; i < 30000; ++i) {
     char line[96];
     const double t = 0.01 * i;
-    std::snprintf(line, sizeof line, "%.6f %.3f %.3f %.3f\n", t, rng.normal(), rng.normal(), 9.8);
+    double y = rng.normal(), x = rng.normal();
+    std::snprintf(line, sizeof line, "%.6f %.3f %.3f %.3f\n", t, x, y, 9.8);
     acc += (i % 7919 == 5) ? "0.5 x 1 2\n" : line;
-    std::snprintf(line, sizeof line, "%.6f\t%.5e\t%.5e\t%.5e\n", t, rng.normal(), rng.normal(),
-                  0.1);
+    y = rng.normal();
+    x = rng.normal();
+    std::snprintf(line, sizeof line, "%.6f\t%.5e\t%.5e\t%.5e\n", t, x, y, 0.1);
     if (i % 4999 == 17) gyro += "1 2 3\n";
     if (i % 9001 == 100) gyro += "# imucal: time-unit=ms\n";
     if (i % 6007 == 42) continue;  // a gyro sample missing: the accelerometer's is unmatched

@@ -50,12 +50,10 @@ GyroVector<double> random_gyro(sim::Random& rng) {
   return p;
 }
 
-V3 random_vector(sim::Random& rng, double scale) {
-  return V3(rng.normal(), rng.normal(), rng.normal()) * scale;
-}
+V3 random_vector(sim::Random& rng, double scale) { return rng.normal3() * scale; }
 
 M3 random_rotation(sim::Random& rng, double max_angle) {
-  const V3 axis = V3(rng.normal(), rng.normal(), rng.normal()).normalized();
+  const V3 axis = rng.normal3().normalized();
   return Eigen::AngleAxis<double>(rng.uniform(-max_angle, max_angle), axis).toRotationMatrix();
 }
 
@@ -327,9 +325,10 @@ TEST(ConventionsFusion, GeneralMisalignmentReadIntoImucalFrame) {
   sim::Random rng(303);
   for (int trial = 0; trial < kTrials; ++trial) {
     FusionInertial fa, fg;
-    fa.misalignment = random_rotation(rng, 0.3) * unit_t(0.02 * rng.normal(), 0.02 * rng.normal(),
-                                                         0.02 * rng.normal(), 0.02 * rng.normal(),
-                                                         0.02 * rng.normal(), 0.02 * rng.normal());
+    double m[6];  // drawn last first, then the rotation
+    for (int i = 5; i >= 0; --i) m[i] = 0.02 * rng.normal();
+    const M3 rotation = random_rotation(rng, 0.3);
+    fa.misalignment = rotation * unit_t(m[0], m[1], m[2], m[3], m[4], m[5]);
     fg.misalignment = random_rotation(rng, 0.3);
     fa.sensitivity = V3::Constant(1.0 / 16384.0) + random_vector(rng, 1e-6);
     fg.sensitivity = V3::Constant(1.0 / 131.0) + random_vector(rng, 1e-4);

@@ -77,9 +77,7 @@ MoveSet<Scalar> make_moves(const GyroVector<double>& truth, const Vector3<double
           2.0 * angle * std::pow(std::sin(3.141592653589793 * tau), 2) / (n * 0.01);
       const Vector3<double> w = speed * axis;
       r = r * rotation_exp(Vector3<double>(w * dt));
-      const Vector3<double> u =
-          m_inv * w - b_true + b0 +
-          raw_noise * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
+      const Vector3<double> u = m_inv * w - b_true + b0 + raw_noise * rng.normal3();
       seg.add(u.cast<Scalar>(), static_cast<Scalar>(dt));
       if (i % 6 == 5 || i == n - 1) {
         set.segments.push_back(seg);

@@ -28,10 +28,10 @@ TEST(GyroSegment, ReEvaluationForAnyMatrixAndBiasIsExact) {
   sim::Random rng(1);
   for (int trial = 0; trial < 50; ++trial) {
     const Matrix3<double> m = random_gyro_matrix(rng);
-    const Vector3<double> b(rng.normal(), rng.normal(), rng.normal());
+    const Vector3<double> b = rng.normal3();
     GyroSegment<double> raw, calibrated;
     for (int k = 0; k < 12; ++k) {
-      const Vector3<double> w(rng.normal(), rng.normal(), rng.normal());
+      const Vector3<double> w = rng.normal3();
       const double dt = 0.01 * rng.uniform(0.9, 1.04);  // logger jitter
       raw.add(w, dt);
       calibrated.add(m * (w + b), dt);
@@ -49,7 +49,7 @@ TEST(GyroSegment, AppendingARunEqualsAddingItsSamples) {
   sim::Random rng(5);
   GyroSegment<double> whole, first, second;
   for (int k = 0; k < 20; ++k) {
-    const Vector3<double> w(rng.normal(), rng.normal(), rng.normal());
+    const Vector3<double> w = rng.normal3();
     const double dt = 0.01 * rng.uniform(0.9, 1.1);
     whole.add(w, dt);
     (k < 7 ? first : second).add(w, dt);
@@ -184,10 +184,9 @@ TEST(GyroSegment, CalibratorDefaultSegmentsMatchRk4OnAConingMove) {
     ImuSample<double> s;
     s.t_us = t_us;
     // Tiny noise: a noise-free sensor would be taken for a frozen one.
-    s.acc = attitude.transpose() * up +
-            1e-3 * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
+    s.acc = attitude.transpose() * up + 1e-3 * rng.normal3();
     if (moving) s.acc += Vector3<double>(0.5, -0.3, 0.2);
-    s.gyro = w + 1e-7 * Vector3<double>(rng.normal(), rng.normal(), rng.normal());
+    s.gyro = w + 1e-7 * rng.normal3();
     times.push_back(t);
     rates.push_back(s.gyro);
     cal.add(s);

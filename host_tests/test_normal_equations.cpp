@@ -5,10 +5,16 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <cmath>
+#include <limits>
 
 #include "imucal/normal_equations.hpp"
 #include "imucal/sim/random.hpp"
 #include "support/gtest_status.hpp"
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
 
 namespace imucal {
 namespace {
@@ -118,9 +124,9 @@ TEST(NormalEquations, RefusesNonFiniteAndNegativeWeightRowsAndKeepsState) {
   ASSERT_EQ(ne.add(Vec(1, 2, 3, 4), 0.5, 1.0), Status::kOk);
   const auto h = ne.information();
   const double f = ne.weighted_sse();
-  EXPECT_EQ(ne.add(Vec(1, NAN, 3, 4), 0.5, 1.0), Status::kNonFiniteInput);
-  EXPECT_EQ(ne.add(Vec(1, 2, 3, 4), INFINITY, 1.0), Status::kNonFiniteInput);
-  EXPECT_EQ(ne.add(Vec(1, 2, 3, 4), 0.5, NAN), Status::kNonFiniteInput);
+  EXPECT_EQ(ne.add(Vec(1, kNaN, 3, 4), 0.5, 1.0), Status::kNonFiniteInput);
+  EXPECT_EQ(ne.add(Vec(1, 2, 3, 4), kInf, 1.0), Status::kNonFiniteInput);
+  EXPECT_EQ(ne.add(Vec(1, 2, 3, 4), 0.5, kNaN), Status::kNonFiniteInput);
   EXPECT_EQ(ne.add(Vec(1, 2, 3, 4), 0.5, -1.0), Status::kInvalidArgument);
   EXPECT_EQ(ne.rows(), 1);
   EXPECT_EQ(ne.information(), h);
@@ -132,8 +138,10 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
   // A parameter that no row depends on.
   NE zero_column;
   sim::Random rng(3);
-  for (int r = 0; r < 10; ++r)
-    zero_column.add(Vec(rng.normal(), rng.normal(), rng.normal(), 0.0), 1.0);
+  for (int r = 0; r < 10; ++r) {
+    const Eigen::Vector3d j = rng.normal3();
+    zero_column.add(Vec(j(0), j(1), j(2), 0.0), 1.0);
+  }
   Vec delta = sentinel;
   EXPECT_EQ(zero_column.solve_damped(0.0, delta), Status::kRankDeficient);
   EXPECT_EQ(delta, sentinel);
@@ -143,8 +151,8 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
   // Two parameters that always move together.
   NE collinear;
   for (int r = 0; r < 10; ++r) {
-    const double x = rng.normal();
-    collinear.add(Vec(x, x, rng.normal(), 1.0), rng.normal());
+    const double x = rng.normal(), e = rng.normal(), z = rng.normal();
+    collinear.add(Vec(x, x, z, 1.0), e);
   }
   delta = sentinel;
   EXPECT_EQ(collinear.solve_damped(0.0, delta), Status::kRankDeficient);

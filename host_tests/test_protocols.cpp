@@ -61,7 +61,8 @@ sim::AccelTruth effective_accel_truth(const Cal& cal, const sim::Recording& rec,
 }
 
 // Each parameter's error in sigmas (accelerometer's 9, then the gyro's 12; NaN for one held).
-using Errors = Eigen::Matrix<double, kAccelParams + kGyroParams, 1>;
+constexpr int kAllParams = int{kAccelParams} + int{kGyroParams};
+using Errors = Eigen::Matrix<double, kAllParams, 1>;
 
 template <typename Scalar>
 void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expect{},
@@ -283,8 +284,7 @@ TEST(Protocols, WarmingBoardSigmaIsHonest) {
 #else
   constexpr int kRuns = 40;
   Errors sum_z2 = Errors::Zero();
-  Eigen::Matrix<int, kAccelParams + kGyroParams, 1> counted =
-      Eigen::Matrix<int, kAccelParams + kGyroParams, 1>::Zero();
+  Eigen::Matrix<int, kAllParams, 1> counted = Eigen::Matrix<int, kAllParams, 1>::Zero();
   int beyond_3 = 0;  // recordings with a parameter beyond 3 sigma
   double worst = 0.0;
   for (int r = 0; r < kRuns; ++r) {

@@ -43,7 +43,7 @@ inline AccelTruth draw_accel_truth(const AccelSensorSpec& spec, Random& rng,
 
 inline Vector3<double> random_direction(Random& rng) {
   for (;;) {
-    const Vector3<double> v(rng.normal(), rng.normal(), rng.normal());
+    const Vector3<double> v = rng.normal3();
     const double n = v.norm();
     if (n > 1e-6) return v / n;
   }
@@ -62,7 +62,7 @@ inline Vector3<double> noisy_pose_mean(const AccelTruth& t, const AccelSensorSpe
                                        const Vector3<double>& up, std::uint32_t n, Random& rng) {
   const Vector3<double> clean = raw_from_calibrated(t, t.gravity * up);
   const double sd = spec.noise / std::sqrt(static_cast<double>(n));
-  return clean + Vector3<double>(rng.normal(), rng.normal(), rng.normal()) * sd;
+  return clean + rng.normal3() * sd;
 }
 
 }  // namespace imucal::sim

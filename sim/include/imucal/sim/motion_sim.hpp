@@ -72,7 +72,7 @@ inline Vector3<double> so3_log(const Matrix3<double>& r) {
 // Uniform over SO(3): a normalised 4-D Gaussian is a uniform unit quaternion.
 inline Matrix3<double> random_rotation(Random& rng) {
   for (;;) {
-    Eigen::Quaternion<double> q(rng.normal(), rng.normal(), rng.normal(), rng.normal());
+    Eigen::Quaternion<double> q = rng.normal_quaternion();
     const double n = q.norm();
     if (n > 1e-6) {
       q.coeffs() /= n;
@@ -480,9 +480,7 @@ class MotionBuilder {
     if (plan_.record_attitude) rec_.attitude.push_back(r_);
   }
 
-  Vector3<double> noise(double sd) {
-    return Vector3<double>(rng_.normal(), rng_.normal(), rng_.normal()) * sd;
-  }
+  Vector3<double> noise(double sd) { return rng_.normal3() * sd; }
 
   const MotionPlan& plan_;
   const AccelSensorSpec& acc_spec_;

@@ -3,6 +3,8 @@
 // standard library's distributions are implementation-defined). Not for device code.
 #pragma once
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
 
@@ -22,6 +24,19 @@ class Random {
   // Uniform in [0, 1).
   double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+
+  // A vector of standard normal draws, drawn last coordinate first. The order is fixed here,
+  // not left to the compiler (Eigen::Vector3d(normal(), normal(), normal()) draws in whichever
+  // order the compiler evaluates arguments: GCC last to first, Clang first to last).
+  Eigen::Vector3d normal3() {
+    const double z = normal(), y = normal(), x = normal();
+    return {x, y, z};
+  }
+  // A quaternion (w, x, y, z) of standard normal draws, z first.
+  Eigen::Quaterniond normal_quaternion() {
+    const double z = normal(), y = normal(), x = normal(), w = normal();
+    return {w, x, y, z};
+  }
 
   double normal() {
     if (has_spare_) {

@@ -130,10 +130,8 @@ inline RestSummary<double> draw_rest(const TemperatureTruth& t, const AccelSenso
                                      double rate_hz = 100.0) {
   RestSummary<double> r;
   const double k = 1.0 / std::sqrt(static_cast<double>(n));
-  r.accel_mean = t.raw_accel(t.acc.gravity * up, t_c) +
-                 Vector3<double>(rng.normal(), rng.normal(), rng.normal()) * (acc_spec.noise * k);
-  r.gyro_mean = t.raw_gyro(Vector3<double>::Zero(), t_c) +
-                Vector3<double>(rng.normal(), rng.normal(), rng.normal()) * (gyro_spec.noise * k);
+  r.accel_mean = t.raw_accel(t.acc.gravity * up, t_c) + rng.normal3() * (acc_spec.noise * k);
+  r.gyro_mean = t.raw_gyro(Vector3<double>::Zero(), t_c) + rng.normal3() * (gyro_spec.noise * k);
   r.temperature_c = t_c;
   r.has_temperature = true;
   r.samples = n;
@@ -242,9 +240,7 @@ class TemperatureStream {
     }
   }
 
-  Vector3<double> noise(double sd) {
-    return Vector3<double>(rng_.normal(), rng_.normal(), rng_.normal()) * sd;
-  }
+  Vector3<double> noise(double sd) { return rng_.normal3() * sd; }
 
   const TemperatureTruth& truth_;
   const AccelSensorSpec& acc_spec_;
