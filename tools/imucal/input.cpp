@@ -178,6 +178,8 @@ void split_fields(std::string_view line, std::vector<Field>& out) {
 
 namespace {
 
+bool is_digit(char c) { return static_cast<unsigned>(c - '0') < 10; }
+
 // The run of decimal digits at p, at most eight of them (p + 8 <= end): how many there are, with
 // m * 10^count + their value in m. Eight bytes at once: each byte XOR '0' is its digit where it
 // is one and 10 or more where it is not; the digits are moved to the top of the word, behind
@@ -214,8 +216,7 @@ const char* decimal_fast(const char* p, const char* end, double& out) {
   if (negative) ++p;
   std::uint64_t m = 0;
   int digits = 0, exponent = 0;
-  for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits)
-    m = m * 10 + static_cast<std::uint64_t>(*p - '0');
+  for (; p < end && is_digit(*p); ++p, ++digits) m = m * 10 + static_cast<std::uint64_t>(*p - '0');
   if (p < end && *p == '.') {
     ++p;
     if (end - p >= 8 && digits <= 11) {  // the decimals, eight at a time while they last
@@ -227,7 +228,7 @@ const char* decimal_fast(const char* p, const char* end, double& out) {
         exponent -= n;
       } while (n == 8 && end - p >= 8 && digits <= 11);
     }
-    for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits, --exponent)
+    for (; p < end && is_digit(*p); ++p, ++digits, --exponent)
       m = m * 10 + static_cast<std::uint64_t>(*p - '0');
   }
   if (digits == 0 || digits > 19) return nullptr;
@@ -235,14 +236,14 @@ const char* decimal_fast(const char* p, const char* end, double& out) {
     const char* q = p + 1;
     const bool minus = q < end && *q == '-';
     if (q < end && (*q == '-' || *q == '+')) ++q;
-    auto digit = [](char c) { return static_cast<unsigned>(c - '0') < 10; };
     int e = 0, n = 0;
-    if (end - q >= 2 && digit(q[0]) && digit(q[1]) && (end - q == 2 || !digit(q[2]))) {  // "e+04"
+    // The common two digits ("e+04") at once.
+    if (end - q >= 2 && is_digit(q[0]) && is_digit(q[1]) && (end - q == 2 || !is_digit(q[2]))) {
       e = (q[0] - '0') * 10 + (q[1] - '0');
       q += 2;
       n = 2;
     } else {
-      for (; q < end && digit(*q) && n < 5; ++q, ++n) e = e * 10 + (*q - '0');
+      for (; q < end && is_digit(*q) && n < 5; ++q, ++n) e = e * 10 + (*q - '0');
     }
     if (n == 5) return nullptr;
     if (n > 0) {  // else the number ends before the 'e', as from_chars reads it

@@ -26,8 +26,8 @@ class Random {
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
 
   // A vector of standard normal draws, drawn last coordinate first. The order is fixed here,
-  // not left to the compiler (Eigen::Vector3d(normal(), normal(), normal()) draws in whichever
-  // order the compiler evaluates arguments: GCC last to first, Clang first to last).
+  // not left to the compiler: Eigen::Vector3d(normal(), normal(), normal()) draws in whichever
+  // order the compiler evaluates arguments, and x86 GCC, Arm GCC and Clang differ.
   Eigen::Vector3d normal3() {
     const double z = normal(), y = normal(), x = normal();
     return {x, y, z};
