@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -97,7 +98,8 @@ class LineReader {
   std::string error_;
   std::string name_;
   std::size_t max_line_ = kMaxLine;
-  std::vector<char> buf_;
+  std::unique_ptr<char[]> buf_;
+  std::size_t buf_size_ = 0;
   std::size_t begin_ = 0, end_ = 0;
   std::string_view memory_;
   bool from_memory_ = false;
