@@ -230,16 +230,20 @@ struct IntegerRange {
   double least = HUGE_VAL, most = -HUGE_VAL;
 
   void add(const double v[3]) {
+    if (!integers) return;
     for (int a = 0; a < 3; ++a) {
-      if (!integers || !std::isfinite(v[a])) continue;
       constexpr double kLimit = 2147483647.0;  // beyond it no reading is an int16 or uint16
-      if (!(std::abs(v[a]) <= kLimit) ||
-          v[a] != static_cast<double>(static_cast<std::int64_t>(v[a]))) {
-        integers = false;
+      const double x = v[a];
+      if (!(std::abs(x) <= kLimit)) {  // NaN and infinities are no readings, not a format
+        if (std::isfinite(x)) integers = false;
         continue;
       }
-      least = std::min(least, v[a]);
-      most = std::max(most, v[a]);
+      if (x != static_cast<double>(static_cast<std::int64_t>(x))) {
+        integers = false;
+        return;
+      }
+      least = std::min(least, x);
+      most = std::max(most, x);
     }
   }
 
@@ -303,9 +307,17 @@ struct RangeWatch {
   }
   void count(const double v[3]) {
     if (!active) return;
-    const bool used = saturated(v, used_lo, used_hi);
-    differs[0] += saturated(v, -32768, 32767) != used;
-    differs[1] += saturated(v, 0, 65535) != used;
+    // As saturated() at each pair of limits, from the least and the largest axis (a NaN axis
+    // is at no limit).
+    double least = HUGE_VAL, most = -HUGE_VAL;
+    for (int a = 0; a < 3; ++a) {
+      if (v[a] < least) least = v[a];
+      if (v[a] > most) most = v[a];
+    }
+    auto at_limit = [&](double lo, double hi) { return least <= lo || most >= hi; };
+    const bool used = at_limit(used_lo, used_hi);
+    differs[0] += at_limit(-32768, 32767) != used;
+    differs[1] += at_limit(0, 65535) != used;
     differs[2] += used;
   }
   // Whether the limits found at the end (lower limit lo; NaN: none) judge some sample otherwise
