@@ -4,7 +4,7 @@
 # Uses sudo when not root. Idempotent: skips apt-get when everything is already there.
 #   tools/setup_debian.sh [PACKAGE...]
 set -euo pipefail
-packages=(cmake ninja-build g++ libeigen3-dev googletest libgtest-dev libbenchmark-dev
+packages=(cmake ninja-build ccache g++ libeigen3-dev googletest libgtest-dev libbenchmark-dev
   clang-format gcc-arm-none-eabi picolibc-arm-none-eabi libstdc++-arm-none-eabi-picolibc
   qemu-system-arm nlohmann-json3-dev clang libclang-rt-14-dev librsvg2-bin python3
   pybind11-dev python3-dev python3-numpy python3-pytest)
