@@ -829,6 +829,7 @@ struct WindowStats {
   double t_begin = kNaN, t_end = kNaN;
   long n = 0;
   double sum = 0, sum_noise = 0;
+  double sum_first = 0;  // sum's part over the first Run::kImuTkSamples samples
   MagWindow mag;
 };
 
@@ -1145,13 +1146,14 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
       const double mean_norm = o.gravity - run.pose_list[at].residual_after;
       const double norm = accel_apply(pa, Vector3<double>(y.acc[0], y.acc[1], y.acc[2])).norm();
       w.sum += (o.gravity - norm) * (o.gravity - norm);
+      if (w.n <= Run::kImuTkSamples) w.sum_first += (o.gravity - norm) * (o.gravity - norm);
       w.sum_noise += (norm - mean_norm) * (norm - mean_norm);
     }
   });
   if (!again) return failed_again();
   if (pages) page = pages->take();
-  double sum = 0, sum_noise = 0;
-  long in_windows = 0;
+  double sum = 0, sum_noise = 0, sum_first = 0;
+  long in_windows = 0, first = 0;
   std::vector<MagWindow> mag_windows;
   for (std::size_t i = 0; i < stats.size(); ++i) {
     run.pose_list[i].t_begin = stats[i].t_begin;
@@ -1159,11 +1161,32 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     sum += stats[i].sum;
     sum_noise += stats[i].sum_noise;
     in_windows += stats[i].n;
+    if (stats[i].n >= Run::kImuTkSamples) {
+      sum_first += stats[i].sum_first;
+      first += Run::kImuTkSamples;
+    }
     mag_windows.push_back(stats[i].mag);
   }
   if (run.accel_ok && in_windows > 0) {
     run.accel_sample_rms_after = std::sqrt(sum / static_cast<double>(in_windows));
     run.accel_noise_floor = std::sqrt(sum_noise / static_cast<double>(in_windows));
+  }
+  // Rests split in two by a short motion that left the orientation as it was (a bump): each
+  // half is a pose here, where a detector that smooths over the bump sees one rest.
+  for (std::size_t i = 1; run.accel_ok && i < run.pose_list.size(); ++i) {
+    PoseResult& pose = run.pose_list[i];
+    const PoseResult& prev = run.pose_list[i - 1];
+    const Vector3<double> u(pose.up[0], pose.up[1], pose.up[2]),
+        v(prev.up[0], prev.up[1], prev.up[2]);
+    pose.angle_to_previous = std::atan2(u.cross(v).norm(), u.dot(v)) * kDeg;
+    pose.gap_before = pose.t_begin - prev.t_end;
+    if (pose.angle_to_previous <= PoseResult::kSplitDeg &&
+        pose.gap_before <= PoseResult::kSplitGapS)
+      pose.continues = static_cast<int>(i);
+  }
+  if (run.accel_ok && first > 0) {
+    run.accel_imu_tk_cost = 0.5 * sum_first;
+    run.accel_imu_tk_samples = first;
   }
   run.input_reads = in.reads();
 
@@ -1195,6 +1218,15 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     }
     run.gyro_rms_before = rms(before);
     run.gyro_rms_after = rms(after);
+    if (run.gyro_ok && !after.empty()) {
+      double cost = 0;
+      for (double deg : after) {
+        if (!std::isfinite(deg)) continue;
+        const double chord = 2 * std::sin(0.5 * deg / kDeg);
+        cost += 0.5 * chord * chord;
+      }
+      run.gyro_imu_tk_cost = cost;
+    }
   }
 
   MagCalibration<Scalar> mc;

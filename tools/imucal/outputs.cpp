@@ -289,10 +289,24 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
   // Every rest found, the last one included.
   if (!run.pose_list.empty() && run.mode == "stream") {
     std::fprintf(out, "rests    (each a pose: from .. to, s; samples)\n");
+    int split = 0;
     for (std::size_t i = 0; i < run.pose_list.size(); ++i) {
       const PoseResult& pr = run.pose_list[i];
-      std::fprintf(out, "  %3zu  %9.2f .. %9.2f  %6d\n", i + 1, pr.t_begin, pr.t_end, pr.samples);
+      std::fprintf(out, "  %3zu  %9.2f .. %9.2f  %6d", i + 1, pr.t_begin, pr.t_end, pr.samples);
+      if (pr.continues > 0) {
+        ++split;
+        std::fprintf(out, "   the orientation of rest %d (%.2f deg), after %.2f s of motion",
+                     pr.continues, pr.angle_to_previous, pr.gap_before);
+      }
+      std::fprintf(out, "\n");
     }
+    if (split > 0)
+      std::fprintf(out,
+                   "  %s split by a short motion that left the orientation as it was (a bump): "
+                   "each part is a pose; a detector that smooths over the bump (imu_tk's) sees "
+                   "%zu rests\n",
+                   plural_of(split, "rest was", "rests were").c_str(),
+                   run.pose_list.size() - static_cast<std::size_t>(split));
   }
 
   const char* au = accel_unit_name(o.accel_unit);
@@ -323,6 +337,15 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                    "pose: %s)\n",
                    fmt("%.5f", run.accel_sample_rms_after).c_str(),
                    fmt("%.5f", run.accel_noise_floor).c_str());
+    if (run.accel_imu_tk_samples > 0)
+      std::fprintf(
+          out,
+          "  as imu_tk states it (half the sum of squares over the first %ld samples "
+          "of each pose): %s (m/s^2)^2 over %ld samples, RMS %s m/s^2\n",
+          Run::kImuTkSamples, fmt("%.6g", run.accel_imu_tk_cost).c_str(), run.accel_imu_tk_samples,
+          fmt("%.5f",
+              std::sqrt(2 * run.accel_imu_tk_cost / static_cast<double>(run.accel_imu_tk_samples)))
+              .c_str());
     if (std::isfinite(run.accel_noise)) {
       std::fprintf(out, "  noise measured in the rests: %s m/s^2 a sample on each axis",
                    fmt("%.3g", run.accel_noise).c_str());
@@ -369,6 +392,11 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  "after %s deg%s\n",
                  fmt("%.3f", run.gyro_rms_before).c_str(), fmt("%.3f", run.gyro_rms_after).c_str(),
                  run.have_nominal_gyro ? "" : " (before: give the nominal --gyro-lsb-per-dps)");
+    if (std::isfinite(run.gyro_imu_tk_cost))
+      std::fprintf(out,
+                   "  as imu_tk states it (half the sum over the moves of |carried - measured "
+                   "gravity direction|^2): %s\n",
+                   fmt("%.6g", run.gyro_imu_tk_cost).c_str());
   }
   if (run.has_gyro && std::isfinite(run.gyro_noise)) {
     std::fprintf(out, "  noise measured in the initial rest: %s rad/s a sample on each axis",
@@ -656,7 +684,9 @@ std::string run_json(const Run& run, const Options& o) {
   accel["residual_mps2"] = {{"pose_rms_before", number(run.accel_pose_rms_before)},
                             {"pose_rms_after", number(run.accel_pose_rms_after)},
                             {"sample_rms_after", number(run.accel_sample_rms_after)},
-                            {"sample_noise_floor", number(run.accel_noise_floor)}};
+                            {"sample_noise_floor", number(run.accel_noise_floor)},
+                            {"imu_tk_cost", number(run.accel_imu_tk_cost)},
+                            {"imu_tk_samples", run.accel_imu_tk_samples}};
   accel["noise"] = {{"sample_sigma_mps2", number(run.accel_noise)},
                     {"pose_floor_mps2", number(run.accel_pose_floor)},
                     {"fit_chi2_per_dof", number(run.accel_fit_to_noise)}};
@@ -671,6 +701,7 @@ std::string run_json(const Run& run, const Options& o) {
   if (run.gyro_ok) gyro["parameters"] = params(kGyroNames, run.gyro_params, run.gyro_sigma, 12);
   gyro["residual_deg"] = {{"move_rms_before", number(run.gyro_rms_before)},
                           {"move_rms_after", number(run.gyro_rms_after)}};
+  gyro["imu_tk_cost"] = number(run.gyro_imu_tk_cost);
   gyro["noise"] = {{"sample_sigma_rads", number(run.gyro_noise)}};
   j["gyroscope"] = gyro;
   j["magnetometer"] = mag_json(run, o);
@@ -688,7 +719,10 @@ std::string run_json(const Run& run, const Options& o) {
                      {"mean", {p.mean[0], p.mean[1], p.mean[2]}},
                      {"up", {p.up[0], p.up[1], p.up[2]}},
                      {"residual_before_mps2", number(p.residual_before)},
-                     {"residual_after_mps2", number(p.residual_after)}});
+                     {"residual_after_mps2", number(p.residual_after)},
+                     {"angle_to_previous_deg", number(p.angle_to_previous)},
+                     {"gap_before_s", number(p.gap_before)},
+                     {"continues_pose", p.continues}});
   j["poses"] = poses;
   Json moves = Json::array();
   for (const MoveResult& m : run.move_list)

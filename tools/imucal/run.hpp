@@ -87,6 +87,13 @@ struct PoseResult {
   double up[3] = {0, 0, 0};       // calibrated unit gravity direction (body frame)
   double residual_before = kNaN;  // |g| - |a_nominal(mean)|, m/s^2 (NaN: no nominal model)
   double residual_after = kNaN;   // |g| - |a_cal(mean)|, m/s^2
+  // A rest split in two: this pose holds the previous one's orientation (within
+  // kSplitDeg) after a short motion (at most kSplitGapS): the 1-based number of that pose, else 0;
+  // the angle between them and the time between them.
+  static constexpr double kSplitDeg = 1.0, kSplitGapS = 2.0;
+  int continues = 0;
+  double angle_to_previous = kNaN;  // deg
+  double gap_before = kNaN;         // s
 };
 
 struct MoveResult {
@@ -193,6 +200,12 @@ struct Run {
   std::array<double, 9> accel_nominal{};  // T = I, s and b from the units (if known)
   double accel_pose_rms_before = kNaN, accel_pose_rms_after = kNaN;  // m/s^2
   double accel_sample_rms_after = kNaN, accel_noise_floor = kNaN;    // m/s^2, pose windows
+  // The figure imu_tk prints as the accelerometer's "residual": Ceres's final cost, half the sum
+  // of (|g| - |a_cal|)^2 over the first kImuTkSamples samples of every pose that has as many
+  // ((m/s^2)^2), and how many samples that is.
+  static constexpr long kImuTkSamples = 100;
+  double accel_imu_tk_cost = kNaN;
+  long accel_imu_tk_samples = 0;
   // The noise the calibrator measured and weighs with (one sample, one axis, SI units): the
   // accelerometer's in its rests, the gyro's in the initial rest; the pose means' floor beyond
   // the accelerometer's noise (m/s^2) and the fit's chi-square per degree of freedom under it.
@@ -206,7 +219,10 @@ struct Run {
   bool have_nominal_gyro = false;
   std::array<double, 12> gyro_nominal{};  // T = I, s from the units, b from the initial rest
   double gyro_rms_before = kNaN, gyro_rms_after = kNaN;  // deg per move
-  std::string quality;                                   // none, poor, fair, good
+  // The figure imu_tk prints as the gyro's "residual": half the sum over the moves of
+  // |carried - measured gravity direction|^2 (unit vectors: (2 sin(angle / 2))^2).
+  double gyro_imu_tk_cost = kNaN;
+  std::string quality;         // none, poor, fair, good
   std::string quality_reason;  // the check that set it (streaming runs; empty otherwise)
   int quality_level = 0;       // the same as a number: 0 none, 1 poor, 2 fair, 3 good
   // What the input holds is calibrated: both sensors (quality fair or good), the accelerometer
