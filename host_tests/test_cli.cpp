@@ -1078,7 +1078,8 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
     EXPECT_LE(r[d]["gyroscope"]["residual_deg"]["move_rms_after"].get<double>(), 0.6);
     // Three rests are split by a bump that leaves the orientation as it was (0.38 to 1.11 s of
     // motion, under 0.1 deg): poses 12, 29 and 41 continue 11, 28 and 40. Without them the
-    // rests are imu_tk's 38 on this recording (its own run, bench/vs_imu_tk.sh).
+    // rests are imu_tk's 38: its detector (the variance over 101 samples against 6 times the
+    // initial rest's, its chosen threshold) spans each of these pairs with one interval.
     std::vector<int> continues;
     const Json& poses = r[d]["poses"];
     for (std::size_t i = 0; i < poses.size(); ++i) {
