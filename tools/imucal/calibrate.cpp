@@ -110,6 +110,11 @@ const char* quality_name(Quality q) {
   return "none";
 }
 
+// The angle between two directions, in degrees (stable for small and for near-opposite ones).
+double angle_deg(const Vector3<double>& u, const Vector3<double>& v) {
+  return std::atan2(u.cross(v).norm(), u.dot(v)) * kDeg;
+}
+
 // The angle (deg) between gravity carried over a move by the gyro model (M, bias relative to
 // the statistics' own) and the gravity measured after it.
 template <typename Scalar, class Cal>
@@ -127,8 +132,7 @@ double move_angle(const Cal& cal, const GyroMove& mv, const Matrix3<double>& m,
     d.duration = static_cast<double>(s.duration);
     v = rotation_exp<double>(d.rotation_vector(m, b_rel)).transpose() * v;
   }
-  const Vector3<double> g(to[0], to[1], to[2]);
-  return std::atan2(v.cross(g).norm(), v.dot(g)) * kDeg;
+  return angle_deg(v, Vector3<double>(to[0], to[1], to[2]));
 }
 
 double rms(const std::vector<double>& v) {
@@ -1145,8 +1149,9 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
       if (compensate) compensate->apply(y);
       const double mean_norm = o.gravity - run.pose_list[at].residual_after;
       const double norm = accel_apply(pa, Vector3<double>(y.acc[0], y.acc[1], y.acc[2])).norm();
-      w.sum += (o.gravity - norm) * (o.gravity - norm);
-      if (w.n <= Run::kImuTkSamples) w.sum_first += (o.gravity - norm) * (o.gravity - norm);
+      const double r2 = (o.gravity - norm) * (o.gravity - norm);
+      w.sum += r2;
+      if (w.n <= Run::kImuTkSamples) w.sum_first += r2;
       w.sum_noise += (norm - mean_norm) * (norm - mean_norm);
     }
   });
@@ -1176,9 +1181,8 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   for (std::size_t i = 1; run.accel_ok && i < run.pose_list.size(); ++i) {
     PoseResult& pose = run.pose_list[i];
     const PoseResult& prev = run.pose_list[i - 1];
-    const Vector3<double> u(pose.up[0], pose.up[1], pose.up[2]),
-        v(prev.up[0], prev.up[1], prev.up[2]);
-    pose.angle_to_previous = std::atan2(u.cross(v).norm(), u.dot(v)) * kDeg;
+    pose.angle_to_previous = angle_deg(Vector3<double>(pose.up[0], pose.up[1], pose.up[2]),
+                                       Vector3<double>(prev.up[0], prev.up[1], prev.up[2]));
     pose.gap_before = pose.t_begin - prev.t_end;
     if (pose.angle_to_previous <= PoseResult::kSplitDeg &&
         pose.gap_before <= PoseResult::kSplitGapS)
