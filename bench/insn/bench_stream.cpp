@@ -93,5 +93,11 @@ int main() {
   std::printf("RESULT %s: %d poses, %d moves, %d segments, gyro %d iterations, sizeof %u\n",
               to_string(st), p.poses, p.moves, p.segments, calibrator.calibration().gyro.iterations,
               static_cast<unsigned>(sizeof(calibrator)));
+  // The smaller configurations docs/porting.md lists.
+  std::printf(
+      "RESULT sizeof Calibrator<float, 32, 400> %u, <float, 24, 630> %u, <float, 24, 315> %u\n",
+      static_cast<unsigned>(sizeof(Calibrator<float, 32, 400>)),
+      static_cast<unsigned>(sizeof(Calibrator<float, 24, 630>)),
+      static_cast<unsigned>(sizeof(Calibrator<float, 24, 315>)));
   return succeeded(st) ? 0 : 1;
 }

@@ -34,7 +34,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/settings.hpp"
 #include "imucal/normal_equations.hpp"
 #include "imucal/status.hpp"
 #include "imucal/stillness.hpp"

@@ -49,7 +49,7 @@
 #include <limits>
 #include <type_traits>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibration.hpp"
 #include "imucal/normal_equations.hpp"
 #include "imucal/status.hpp"
 #include "imucal/temperature_model.hpp"

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "imucal/accel_model.hpp"
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/settings.hpp"
 #include "imucal/gyro_model.hpp"
 #include "imucal/gyro_segment.hpp"
 #include "imucal/sim/accel_sim.hpp"

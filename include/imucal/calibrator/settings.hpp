@@ -1,0 +1,139 @@
+// imucal/calibrator/settings.hpp: what the streaming calibrator (calibrator.hpp) takes and
+// reports: one raw sample, the settings, the phase and the hint for the user, the stream's fault
+// counts and the progress. Plain types, no code.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+
+#include "imucal/accel_calibration.hpp"
+#include "imucal/gyro_calibration.hpp"
+#include "imucal/status.hpp"
+#include "imucal/stillness.hpp"
+
+namespace imucal {
+
+template <typename Scalar>
+struct ImuSample {
+  std::uint32_t t_us = 0;  // microseconds, wrapping (differences are taken modulo 2^32)
+  Vector3<Scalar> acc = Vector3<Scalar>::Zero();   // raw accelerometer (counts or m/s^2)
+  Vector3<Scalar> gyro = Vector3<Scalar>::Zero();  // raw gyroscope (counts or rad/s)
+  // deg C, NaN if the sensor has none: its mean goes into the calibration (and its record).
+  Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN();
+};
+
+template <typename Scalar>
+struct CalibratorSettings {
+  // The initial rest is the first still period of at least this long (however long it then
+  // lasts, until the first motion): the gyro bias to start from, the noise that sets the first
+  // thresholds, the sample period.
+  Scalar initial_rest_seconds = Scalar(2);
+  // A still spell of at least this long (as the detector sees it, trimmed part included) is a
+  // pose; a shorter one is part of the move around it.
+  Scalar min_rest_seconds = Scalar(0.6);
+  Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
+  StillnessSettings<Scalar> stillness{};  // the detector (stillness.hpp)
+  // false: the stream carries no gyro (its readings are ignored): stillness from the
+  // accelerometer alone, the solve ends after the accelerometer.
+  bool has_gyro = true;
+  Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
+  Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
+  Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period (initial rest too)
+  Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
+  // Temperature readings outside this range (deg C), or not finite (NaN means "no sensor"), are
+  // ignored and counted; the sample is taken.
+  Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
+  // After the initial rest, an accelerometer reading (not at full scale) further than this many
+  // noise sigmas (the initial rest's, its noisiest axis) from the moving mean (the distance over
+  // the three axes) is a glitch: refused and counted.
+  // 1e5 sigma is 100 g or more for any MEMS accelerometer's noise: a value no sensor reads (an
+  // ADC's own limit is far inside for 16-bit counts).
+  Scalar glitch_sigma = Scalar(1e5);
+  // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
+  // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
+  // the range in SI units). The defaults only refuse readings too large for the float sums.
+  Scalar accel_min = Scalar(-1e15), accel_max = Scalar(1e15);
+  Scalar gyro_min = Scalar(-1e15), gyro_max = Scalar(1e15);
+  // The sample rate the sensor is configured for (0: not checked). Over every second of the
+  // stream, a measured rate further than rate_tolerance (relative) from it is reported.
+  Scalar nominal_rate_hz = Scalar(0);
+  Scalar rate_tolerance = Scalar(0.1);
+  // This many consecutive samples behind the clock, in order among themselves: the clock was
+  // reset (the stream restarts as after a gap) rather than a few bad timestamps.
+  int clock_reset_samples = 3;
+  // Segments (math.md section 4): path angle and |alpha||beta| (rad^3) bounds. The defaults keep
+  // the second-order expansion within ~7e-5 rad on a 3 s coning move (test_gyro_segment); 3e-4
+  // gives ~1e-5 rad for ~35 % more segments (on the xsens recording: 0.04 instead of 0.10 sigma
+  // from the RK4 reference, test_xsens_reference).
+  Scalar segment_max_angle = Scalar(0.6);
+  Scalar segment_max_error = Scalar(1e-3);
+  // Raw accelerometer reading at zero acceleration, if roughly known (e.g. 32768 for unsigned
+  // 16-bit counts); only used to tell which face is up for the coverage report. NaN: estimated
+  // from the poses' spread.
+  Vector3<Scalar> accel_zero_hint =
+      Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::quiet_NaN());
+  int target_poses = 24;  // ready when this many poses cover all six faces
+  AccelSettings<Scalar> accel{};
+  // gyro.nominal_scale (rad/s per unit), if given, also sizes the segments; otherwise they start
+  // as for rad/s and the store coarsens as needed.
+  GyroSettings<Scalar> gyro{};
+};
+
+enum class Phase : std::uint8_t {
+  kInitialRest,  // hold still
+  kCollecting,   // turning and resting
+  kReady,        // enough poses and coverage: solve() may be called (more poses still help)
+  kSolving,      // solve_step() until it returns something other than kRunning
+  kDone,         // calibration() holds the result
+  kFailed,       // calibration() says why (status fields); the collected data are kept
+};
+
+enum class Hint : std::uint8_t {
+  kHoldStill,      // initial rest in progress
+  kTurnToFace,     // put the face progress.next_face up and hold it
+  kHoldLonger,     // the last rest was too short to count
+  kTurnAboutAxis,  // turn more about body axis progress.next_axis
+  kCheckSensor,    // frozen sensor or gaps in the stream
+  kSolve,          // ready: call solve()
+  kNone,
+};
+
+// What the stream did wrong, each counted by kind (Progress::stream). Samples refused are also
+// in Progress::samples_refused; what was collected before any of these is kept.
+struct StreamCounts {
+  std::uint32_t non_finite = 0;       // samples with a NaN or infinity: refused
+  std::uint32_t accel_saturated = 0;  // accelerometer at full scale: taken as motion
+  std::uint32_t gyro_saturated = 0;   // gyro at full scale: refused, the move in progress dropped
+  std::uint32_t frozen = 0;           // samples refused while a sensor repeated itself
+  std::uint32_t time_repeated = 0;    // same timestamp as the previous sample: refused
+  std::uint32_t time_backwards = 0;   // timestamp before the previous one: refused
+  std::uint32_t clock_resets = 0;     // the clock went back and stayed back: resynchronised
+  std::uint32_t gaps = 0;             // steps above the gap limit
+  std::uint32_t rate_off = 0;         // one-second windows with a rate far from nominal
+  std::uint32_t busy = 0;             // samples offered while solving or solved: refused
+  std::uint32_t glitches = 0;         // accelerometer readings far outside the running range
+  std::uint32_t temperature_bad = 0;  // temperatures not finite or out of range: ignored
+};
+
+struct Progress {
+  Phase phase = Phase::kInitialRest;
+  Hint hint = Hint::kHoldStill;
+  Status last_event = Status::kOk;  // the latest notable event of the stream
+  float initial_rest_done = 0.0f;   // fraction of the initial rest completed
+  int poses = 0;
+  int moves = 0;
+  int segments = 0;
+  std::uint8_t faces = 0;  // bit i: face i up (+x, -x, +y, -y, +z, -z) has a pose
+  int faces_covered = 0;
+  int next_face = 0;             // for kTurnToFace
+  std::uint8_t axes_turned = 0;  // bit i: enough rotation about body axis i
+  int next_axis = 0;             // for kTurnAboutAxis
+  int rests_too_short = 0;
+  int moves_dropped = 0;  // across gaps, frozen spells, capacity, or the end
+  int coarsenings = 0;    // times the segment store was merged pairwise
+  std::uint32_t samples_refused = 0;
+  StreamCounts stream{};  // bad samples and stream events, each by kind
+};
+
+}  // namespace imucal
