@@ -1039,6 +1039,7 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
   Json r[2];
   for (int d = 0; d < 2; ++d) {
     const std::string out = temp_path(d ? "xsens_double.json" : "xsens_float.json");
+    const std::string svg = temp_path("xsens_float.svg");
     std::vector<std::string> args = {dir + "/xsens_acc.mat",
                                      dir + "/xsens_gyro.mat",
                                      "--accel-unit",
@@ -1059,6 +1060,7 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
                                      out,
                                      "--quiet"};
     if (d) args.push_back("--double");
+    if (!d) args.insert(args.end(), {"--svg", svg});
     testing::internal::CaptureStdout();
     const int code = calibrate_command(args, false);
     const std::string summary = testing::internal::GetCapturedStdout();
@@ -1091,6 +1093,24 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
     }
     EXPECT_EQ(continues, (std::vector<int>{12, 29, 41}));
     EXPECT_EQ(poses.size() - continues.size(), 38u);
+    if (!d) {  // The page marks the same three, and only them.
+      const std::vector<std::uint8_t> bytes = read_binary(svg);
+      const std::string page(bytes.begin(), bytes.end());
+      std::remove(svg.c_str());
+      EXPECT_NE(page.find("in orange, 3 rests split from the one before by a bump"),
+                std::string::npos);
+      for (int k = 1; k <= static_cast<int>(poses.size()); ++k) {
+        const std::string tip = "<title>rest " + std::to_string(k) + ": ";
+        const std::size_t at = page.find(tip);
+        ASSERT_NE(at, std::string::npos) << "rest " << k;
+        const std::string text = page.substr(at, page.find("</title>", at) - at);
+        const bool split = k == 12 || k == 29 || k == 41;
+        EXPECT_EQ(
+            text.find("the orientation of rest " + std::to_string(k - 1)) != std::string::npos,
+            split)
+            << text;
+      }
+    }
     // imu_tk's figures on its definition. The accelerometer's: half the sum of squares over
     // the first 100 samples of each rest, the sensor's noise (RMS 0.008) again; imu_tk prints
     // 0.120131 for its 38 rests (3,800 samples): per sample, the two agree within 5 %.

@@ -67,6 +67,8 @@ constexpr const char* kStyle =
     ".fr{fill:none;stroke:#555;stroke-width:1}"
     ".b{fill:#ffc940;fill-opacity:0.22}"
     ".bn{font-size:9px;fill:#8d6e00;text-anchor:middle}"
+    ".bs{fill:#ef6c00;fill-opacity:0.35}"
+    ".bsn{font-size:9px;font-weight:bold;fill:#bf360c;text-anchor:middle}"
     ".s{fill:none;stroke-width:1;stroke-linejoin:round}"
     ".d{fill:#1565c0;fill-opacity:0.85;stroke:#fff;stroke-width:1}"
     ".dn{font-size:8.5px;font-weight:bold;fill:#fff;text-anchor:middle}"
@@ -149,9 +151,15 @@ std::string report_svg(const Run& run, const Options& options, const std::vector
   const TimeAxis t = time_axis(run, samples);
   double y = title_block(page, run, options) + 14;
 
+  int split = 0;
+  for (const PoseResult& pose : run.pose_list) split += pose.continues > 0 ? 1 : 0;
   y = signal_section(page, y, 190, run, samples, t, false,
                      "Accelerometer, raw (" + std::string(accel_unit_name(options.accel_unit)) +
-                         "), rests shaded and numbered",
+                         "), rests shaded and numbered" +
+                         (split > 0 ? std::string("; in orange, ") + std::to_string(split) +
+                                          (split == 1 ? " rest" : " rests") +
+                                          " split from the one before by a bump"
+                                    : std::string()),
                      std::string(accel_unit_name(options.accel_unit)), true, false);
   y = signal_section(page, y, 160, run, samples, t, true,
                      "Gyroscope, raw (" + std::string(gyro_unit_name(options.gyro_unit)) + ")",

@@ -466,8 +466,8 @@ inline void value_grid(Page& page, const Panel& p, std::string_view label) {
   page.vertical_text(p.x - 62, p.y + p.h / 2, label, "class=\"ax\"");
 }
 
-// The rests as translucent bands; with `numbers`, numbered from 1 where there is room for the
-// number, and with a tooltip.
+// The rests as translucent bands (a rest split from the one before by a bump in orange); with
+// `numbers`, numbered from 1 where there is room for the number, and with a tooltip.
 inline void rest_bands(Page& page, const Panel& p, const Run& run, bool numbers) {
   double last_label_end = -HUGE_VAL;
   for (std::size_t i = 0; i < run.pose_list.size(); ++i) {
@@ -478,18 +478,26 @@ inline void rest_bands(Page& page, const Panel& p, const Run& run, bool numbers)
     double x1 = std::clamp(p.sx(pose.t_end), p.x, p.x + p.w);
     if (!std::isfinite(x0) || !std::isfinite(x1) || x1 < x0) continue;
     if (x1 - x0 < 1) x1 = std::min(x0 + 1, p.x + p.w);
+    // A rest split by a bump (it holds the previous rest's orientation) in its own colour.
+    const bool split = pose.continues > 0;
+    const char* band = split ? "class=\"bs\"" : "class=\"b\"";
     if (!numbers) {
-      page.rect(x0, p.y, x1 - x0, p.h, "class=\"b\"");
+      page.rect(x0, p.y, x1 - x0, p.h, band);
       continue;
     }
-    page.rect(x0, p.y, x1 - x0, p.h, "class=\"b\"",
-              printf_string("rest %zu: %.3f .. %.3f s, %d samples", i + 1, pose.t_begin, pose.t_end,
-                            pose.samples));
+    std::string tip = printf_string("rest %zu: %.3f .. %.3f s, %d samples", i + 1, pose.t_begin,
+                                    pose.t_end, pose.samples);
+    if (split)
+      tip += printf_string(
+          "; the orientation of rest %d (%.2f deg) after %.2f s of motion: one rest split by a "
+          "bump",
+          pose.continues, pose.angle_to_previous, pose.gap_before);
+    page.rect(x0, p.y, x1 - x0, p.h, band, tip);
     const std::string label = std::to_string(i + 1);
     const double half = 3.0 * static_cast<double>(label.size()) + 1;
     const double xc = 0.5 * (x0 + x1);
     if (xc - half < last_label_end) continue;
-    page.text(xc, p.y + 11, label, "class=\"bn\"");
+    page.text(xc, p.y + 11, label, split ? "class=\"bsn\"" : "class=\"bn\"");
     last_label_end = xc + half + 2;
   }
 }
