@@ -9,7 +9,7 @@
 - An endless stdin of the same readings, with --memory 16: stopped after a few seconds, in which
   it has read far more than 16 MB of samples; its peak RSS stays under 16 MB + STREAM_OVER_MB.
 - `imucal noise` on the same endless stdin: its peak RSS stays under NOISE_BOUND_MB.
-The bounds are the README's.
+The bounds are those docs/commands.md states.
 """
 import json
 import os

@@ -45,9 +45,10 @@ imucal::Status calibrate() {
 }  // namespace
 
 int main() {
-  if (!imucal::succeeded(calibrate())) return 1;
+  imucal::Status s = calibrate();
+  if (!imucal::succeeded(s)) return 1;
   imucal::CalibrationRecord record;
-  imucal::Status s = imucal::make_record(calibrator.calibration(), 42u, 1u, record);
+  s = imucal::make_record(calibrator.calibration(), 42u, 1u, record);
   if (s == imucal::Status::kOk) {
     imucal::RecordStore store(flash);
     s = store.save(record);
