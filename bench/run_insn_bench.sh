@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Instruction counts of the benchmark regions on one Arm target, as a Markdown table.
-# Usage: bench/run_insn_bench.sh PRESET   (m4f, m7 or m33; the preset must be built)
+# Usage: bench/run_insn_bench.sh PRESET [BUILD_DIR]
+#   PRESET: m4f, m7, m33, m3 or m0plus (the machine QEMU emulates); BUILD_DIR: where the programs
+#   were built (default build/PRESET; bench/insn_cores.sh builds them for the other cores).
 # Counts are exact guest instructions from the QEMU TCG plugin in bench/qemu_plugin (QEMU is
 # not cycle-accurate: instructions, not cycles). Regions of the same name are summed: the table
 # gives their number, the mean and the largest. Each region includes 2 instructions of marker
@@ -12,19 +14,21 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 preset=${1:-m4f}
+build=${2:-$here/../build/$preset}
 case $preset in
   m4f) machine=mps2-an386 ;;
   m7) machine=mps2-an500 ;;
   m33) machine=mps2-an505 ;;
+  m3 | m0plus) machine=mps2-an385 ;;  # ARMv6-M code runs on its Cortex-M3
   *) echo "unknown preset $preset" >&2; exit 2 ;;
 esac
 echo "| region ($preset, $machine, -O2) | calls | mean | largest | total |"
 echo "| --- | ---: | ---: | ---: | ---: |"
 programs=(bench_accel_insn)
-if [ -f "$here/../build/$preset/bench/bench_apply_insn" ]; then
+if [ -f "$build/bench/bench_apply_insn" ]; then
   programs+=(bench_apply_insn)
 fi
-if [ -f "$here/../build/$preset/bench/bench_mag_insn" ]; then
+if [ -f "$build/bench/bench_mag_insn" ]; then
   programs+=(bench_mag_insn)
 fi
 # The streaming benchmark reads the xsens recording beside the clone (CI always has it).
@@ -35,7 +39,7 @@ else
 fi
 stack=""
 for program in "${programs[@]}"; do
-  elf=$here/../build/$preset/bench/$program
+  elf=$build/bench/$program
   out=$("$here/qemu_plugin/qemu_insn_count.sh" "$machine" "$elf")
   names=$(printf '%s\n' "$out" | sed -n 's/^BENCH //p')
   counts=$(printf '%s\n' "$out" | sed -n 's/^insn_count //p')

@@ -31,7 +31,9 @@ constexpr std::uintptr_t kAddStackWindow = 4096;
 // Prints the stack series just measured (stack_paint.hpp) as "STACK <name>: <bytes> B".
 [[gnu::noinline]] void report_stack(const char* name) {
   const bench::StackSeries s = bench::stack_series_result();
-  if (s.sp_moved) {
+  if (s.measures == 0) {
+    std::printf("STACK %s: not measured (no paint routine for this core)\n", name);
+  } else if (s.sp_moved) {
     std::printf("STACK %s: not measured (main's SP moved between the calls)\n", name);
   } else if (s.window_overflow) {
     std::printf("STACK %s: not measured (something went deeper than the %u B window)\n", name,

@@ -1,5 +1,6 @@
 // bench/insn/stack_paint.hpp: maximum stack depth of calls, measured by painting the stack (Arm
-// Cortex-M, Thumb-2, picolibc's memory layout; run under QEMU by bench/run_insn_bench.sh).
+// Cortex-M with Thumb-2, picolibc's memory layout; run under QEMU by bench/run_insn_bench.sh). On
+// ARMv6-M (Cortex-M0/M0+) the calls compile to nothing and no depth is reported.
 //
 // What is measured: the bytes below the caller's stack pointer at the call, including the call's
 // own frame (the registers it pushes, its locals) and everything it calls in turn: what must be
@@ -43,8 +44,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#if !defined(__arm__) || !defined(__thumb2__)
-#error "stack_paint.hpp: Arm Thumb-2 (Cortex-M3 and up) only"
+#if !defined(__arm__)
+#error "stack_paint.hpp: Arm Cortex-M only"
 #endif
 
 namespace imucal::bench {
@@ -67,6 +68,8 @@ static_assert(offsetof(StackPaintArea, limit) == 16 && offsetof(StackPaintArea, 
                   offsetof(StackPaintArea, sp_moved) == 44 && sizeof(StackPaintArea) == 48,
               "the assembly routines use these offsets");
 }  // namespace imucal::bench
+
+#if defined(__thumb2__)
 
 extern "C" {
 // picolibc.ld: the initial stack pointer (top of RAM) and the stack size (an absolute symbol:
@@ -235,3 +238,21 @@ struct StackSeries {
 }
 
 }  // namespace imucal::bench
+
+#else  // ARMv6-M (Cortex-M0/M0+): the routines are Thumb-2; nothing is measured.
+
+namespace imucal::bench {
+struct StackSeries {
+  std::uintptr_t max_bytes = 0;
+  unsigned measures = 0;  // 0: not measured
+  bool sp_moved = false;
+  bool window_overflow = false;
+  std::uintptr_t window = 0;
+};
+inline void stack_series_start(std::uintptr_t) {}
+inline void stack_paint() {}
+inline void stack_measure() {}
+inline StackSeries stack_series_result() { return StackSeries{}; }
+}  // namespace imucal::bench
+
+#endif

@@ -3,7 +3,7 @@
 // quarter means agree within the noise and the quarter variances alike, the window is still. It
 // gives what the calibrator starts from: the gyro bias, the per-axis noise of both sensors (the
 // first stillness thresholds), the sample period and the acceleration sum that opens the first
-// rest. Header-only, no allocation, 336 bytes of state in float.
+// rest. Header-only, no allocation, 352 bytes of state in float.
 #pragma once
 
 #include <cstdint>
