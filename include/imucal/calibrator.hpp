@@ -266,15 +266,8 @@ class Calibrator {
         return refuse(Status::kTimeRepeated);
       }
       if (step < 0) {
-        if (!clock_.went_back(s.t_us, gap_us_, settings_.clock_reset_samples)) {
-          ++counts_.time_backwards;
-          return refuse(Status::kTimeBackwards);
-        }
-        // Reset: this sample starts the stream again, as after a gap.
-        ++counts_.clock_resets;
-        on_gap();
-        result = last_event_ = Status::kClockReset;
-        restart_stream_ = true;
+        result = behind_clock(s.t_us);
+        if (result != Status::kClockReset) return result;
       }
     }
     clock_.in_order();
@@ -299,15 +292,7 @@ class Calibrator {
         restart_stream_ = true;  // the stream starts again after the frozen spell
       }
     }
-    if (gyro_saturated) {
-      remember(s);
-      // The rotation over this interval is unknown: nothing can be integrated across it.
-      ++counts_.gyro_saturated;
-      if (!restart_stream_) on_gap();
-      restart_stream_ = true;
-      last_event_ = Status::kSaturated;
-      return refuse(Status::kSaturated);
-    }
+    if (gyro_saturated) return gyro_at_full_scale(s);
     if (!restart_stream_ && static_cast<std::uint32_t>(step) > gap_us_) {
       ++counts_.gaps;
       on_gap();
@@ -364,6 +349,30 @@ class Calibrator {
       return Status::kCapacityExceeded;
     }
     return result;
+  }
+
+  // A timestamp behind the clock: refused (kTimeBackwards), or the clock was reset (kClockReset:
+  // the sample starts the stream again, as after a gap). Out of line, as every rare path of take().
+  __attribute__((noinline)) Status behind_clock(std::uint32_t t_us) {
+    if (!clock_.went_back(t_us, gap_us_, settings_.clock_reset_samples)) {
+      ++counts_.time_backwards;
+      return refuse(Status::kTimeBackwards);
+    }
+    ++counts_.clock_resets;
+    on_gap();
+    restart_stream_ = true;
+    return last_event_ = Status::kClockReset;
+  }
+
+  // A gyro at full scale: the rotation over this interval is unknown, nothing can be integrated
+  // across it. Refused; it is the sample the next is ordered against.
+  __attribute__((noinline)) Status gyro_at_full_scale(const ImuSample<Scalar>& s) {
+    remember(s);
+    ++counts_.gyro_saturated;
+    if (!restart_stream_) on_gap();
+    restart_stream_ = true;
+    last_event_ = Status::kSaturated;
+    return refuse(Status::kSaturated);
   }
 
   bool check_settings() const {
