@@ -508,14 +508,16 @@ const char* accel_orientation_hint(int k) {
 }
 
 template class AccelSolver<float>;
-template class AccelSolver<double>;
 template Status check_poses<float>(PoseSpan<float>, const AccelSettings<float>&, Vector3<float>&,
                                    float&);
-template Status check_poses<double>(PoseSpan<double>, const AccelSettings<double>&,
-                                    Vector3<double>&, double&);
 template Status fit_ellipsoid<float>(PoseSpan<float>, const Vector3<float>&, float,
                                      AccelVector<float>&);
+#ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
+template class AccelSolver<double>;
+template Status check_poses<double>(PoseSpan<double>, const AccelSettings<double>&,
+                                    Vector3<double>&, double&);
 template Status fit_ellipsoid<double>(PoseSpan<double>, const Vector3<double>&, double,
                                       AccelVector<double>&);
+#endif
 
 }  // namespace imucal

@@ -228,8 +228,6 @@ Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar, N>& solver,
 
 template class GyroSolver<float, kGyroMatrixParams>;
 template class GyroSolver<float, kGyroParams>;
-template class GyroSolver<double, kGyroMatrixParams>;
-template class GyroSolver<double, kGyroParams>;
 template void GyroInputUncertainty<float>::start<kGyroMatrixParams>(
     const GyroSolver<float, kGyroMatrixParams>&,
     const GyroInputUncertainty<float>::AccelCovariance&);
@@ -243,6 +241,9 @@ template Status GyroInputUncertainty<float>::step<kGyroParams>(
     const GyroSolver<float, kGyroParams>&, const AccelVector<float>&, PoseSpan<float>, int);
 template Status GyroInputUncertainty<float>::finish<kGyroParams>(
     const GyroSolver<float, kGyroParams>&, GyroCalibration<float>&) const;
+#ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
+template class GyroSolver<double, kGyroMatrixParams>;
+template class GyroSolver<double, kGyroParams>;
 template void GyroInputUncertainty<double>::start<kGyroMatrixParams>(
     const GyroSolver<double, kGyroMatrixParams>&,
     const GyroInputUncertainty<double>::AccelCovariance&);
@@ -257,5 +258,6 @@ template Status GyroInputUncertainty<double>::step<kGyroParams>(
     const GyroSolver<double, kGyroParams>&, const AccelVector<double>&, PoseSpan<double>, int);
 template Status GyroInputUncertainty<double>::finish<kGyroParams>(
     const GyroSolver<double, kGyroParams>&, GyroCalibration<double>&) const;
+#endif
 
 }  // namespace imucal

@@ -491,13 +491,15 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
 
 template Status mag_solve<float>(const Vector3<float>*, int, const MagSettings<float>&, int, float,
                                  MagCalibration<float>&);
-template Status mag_solve<double>(const Vector3<double>*, int, const MagSettings<double>&, int,
-                                  double, MagCalibration<double>&);
 template Status mag_align<float>(const Vector3<float>*, const Vector3<float>*, int,
                                  const MagSettings<float>&, const AccelCalibration<float>&,
                                  MagCalibration<float>&);
+#ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
+template Status mag_solve<double>(const Vector3<double>*, int, const MagSettings<double>&, int,
+                                  double, MagCalibration<double>&);
 template Status mag_align<double>(const Vector3<double>*, const Vector3<double>*, int,
                                   const MagSettings<double>&, const AccelCalibration<double>&,
                                   MagCalibration<double>&);
+#endif
 
 }  // namespace imucal

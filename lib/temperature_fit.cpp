@@ -393,7 +393,9 @@ Status TemperatureFit<Scalar, MaxOrder>::solve(TemperatureModel<Scalar>& out) co
 
 template class TemperatureFit<float, 1>;
 template class TemperatureFit<float, 2>;
+#ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
 template class TemperatureFit<double, 1>;
 template class TemperatureFit<double, 2>;
+#endif
 
 }  // namespace imucal
