@@ -547,11 +547,9 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
 template Status make_record<float>(const Calibration<float>&, std::uint32_t, std::uint32_t,
                                    CalibrationRecord&, const MagCalibration<float>*,
                                    const TemperatureModel<float>*, Bound*);
-#ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
 template Status make_record<double>(const Calibration<double>&, std::uint32_t, std::uint32_t,
                                     CalibrationRecord&, const MagCalibration<double>*,
                                     const TemperatureModel<double>*, Bound*);
-#endif
 
 Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t capacity,
                      std::size_t* size) {

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Every test: set up, check formatting, then build and run the test suite on the host (plain,
-# then built by Clang with ASan + UBSan) and, cross-built, on Cortex-M4F, M7 and M33 under qemu-system-arm
-# (ctest with the emulator). The estimator's long tests run on the host and the M4F; the M7 and
-# M33 run the tests of what can differ between targets and the example firmware. The Arm
-# builds also prove "no heap" at link time and print sizes; consumers, fuzzing and instruction
-# counts follow. Each step prints its wall time.
+# then built by Clang with ASan + UBSan) and, cross-built, on Cortex-M4F, M7, M33, M3 and M0+
+# under qemu-system-arm and on RV32IMAC under qemu-system-riscv32 (ctest with the emulator). The
+# estimator's long tests run on the host and the M4F; the other targets run the tests of what
+# can differ between targets and the example firmware. The cross builds also prove "no heap" at
+# link time and print sizes; consumers, fuzzing and instruction counts follow. Each step prints
+# its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
@@ -38,7 +39,7 @@ require_xsens=OFF
 # (leaks included; the first finding aborts the test).
 # Without debug information (a third of the compile time of Eigen's templates); host-asan keeps
 # its line tables for the sanitizers' reports.
-for preset in host host-asan m4f m7 m33; do
+for preset in host host-asan m4f m7 m33 m3 m0plus rv32; do
   step "$preset: configure, build, test"
   flags=()
   [ "$preset" = host-asan ] || flags=(-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2)

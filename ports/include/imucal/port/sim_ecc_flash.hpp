@@ -103,11 +103,11 @@ class SimEccFlash final : public FlashRegion {
     const std::uint32_t first = offset / Unit, units = EraseSize / Unit;
     if (step(&report)) {
       const std::uint32_t torn = next_random() % units;
-      for (std::uint32_t k = 0; k < torn; ++k) erase_unit(first + k);
+      erase_units(first, torn);
       tear(first + torn, nullptr);
       return Status::kStorageError;
     }
-    for (std::uint32_t k = 0; k < units; ++k) erase_unit(first + k);
+    erase_units(first, units);
     return report ? Status::kStorageError : Status::kOk;
   }
 
@@ -147,9 +147,9 @@ class SimEccFlash final : public FlashRegion {
     powered_ = false;
     return true;
   }
-  void erase_unit(std::uint32_t u) {
-    std::memset(bytes_ + u * Unit, 0xFF, Unit);
-    state_[u] = kErased;
+  void erase_units(std::uint32_t first, std::uint32_t n) {
+    std::memset(bytes_ + first * Unit, 0xFF, n * Unit);
+    std::memset(state_ + first, kErased, n);
   }
   // A unit left half-done: `intended` is what a program meant to write (nullptr: an erase).
   void tear(std::uint32_t u, const std::uint8_t* intended) {
