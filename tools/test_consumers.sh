@@ -31,7 +31,9 @@ for config in "${configs[@]}"; do
   platform=${config%%:*}
   IFS=, read -ra modes <<<"${config#*:}"
   toolchain=()
-  [ "$platform" = m4f ] && toolchain=(-DCMAKE_TOOLCHAIN_FILE="$src/tests/consumer/cortex-m4f.cmake")
+  # The firmware builds the library as a firmware would: its solvers in float only.
+  [ "$platform" = m4f ] &&
+    toolchain=(-DCMAKE_TOOLCHAIN_FILE="$src/tests/consumer/cortex-m4f.cmake" -DIMUCAL_FLOAT_ONLY=ON)
   if [[ " ${modes[*]} " == *" package "* ]]; then  # the installed package to find
     # Unoptimised, as the consumer itself is built: this checks the package, not the code's speed
     # (an optimised build of every part takes minutes of Eigen's templates).
