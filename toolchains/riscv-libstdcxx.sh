@@ -7,6 +7,7 @@
 #   toolchains/riscv-libstdcxx.sh ARCH ABI PREFIX        e.g. rv32imac ilp32 build/libstdcxx/...
 # Installs the headers in PREFIX/include/c++/VERSION and libstdc++.a, libsupc++.a in PREFIX/lib.
 # About a minute on 2 cores. toolchains/riscv32imac.cmake runs it when PREFIX has no library yet.
+# IMUCAL_GCC_SOURCE_TARBALL: the GCC source tarball, if not Debian's.
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: $0 ARCH ABI PREFIX" >&2; exit 2; }
 arch=$1 abi=$2

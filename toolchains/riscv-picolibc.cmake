@@ -18,6 +18,8 @@ set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
 set(IMUCAL_RISCV_LIBSTDCXX
     "${CMAKE_CURRENT_LIST_DIR}/../build/libstdcxx/${IMUCAL_RISCV_ARCH}-${IMUCAL_RISCV_ABI}"
     CACHE PATH "Where libstdc++ for the RISC-V target is (built there if missing)")
+# CMake's compiler checks read this file again in projects of their own: the same folder there.
+list(APPEND CMAKE_TRY_COMPILE_PLATFORM_VARIABLES IMUCAL_RISCV_LIBSTDCXX)
 if(NOT EXISTS "${IMUCAL_RISCV_LIBSTDCXX}/lib/libstdc++.a")
   message(STATUS "Building libstdc++ for ${IMUCAL_RISCV_ARCH}/${IMUCAL_RISCV_ABI} in "
                  "${IMUCAL_RISCV_LIBSTDCXX}")
