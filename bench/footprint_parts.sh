@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # What a firmware pays for the parts it links: text, data and bss of imucal's share (each program
 # minus the same program without imucal, bench/footprint/footprint.cpp) for each set of parts, on
-# the given Arm targets and optimisation levels, as a Markdown table. Every program is also
+# the given targets (Arm, rv32) and optimisation levels, as a Markdown table. Every program is also
 # checked for heap symbols (cmake/CheckNoHeap.cmake).
 #   bench/footprint_parts.sh                     m4f at -Os and -O2
 #   bench/footprint_parts.sh m4f:-Os,-O2 m33:-Os  chosen targets and levels
@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 configs=("$@")
 [ ${#configs[@]} -gt 0 ] || configs=(m4f:-Os,-O2)
 declare -A toolchain=([m4f]=cortex-m4f [m7]=cortex-m7 [m33]=cortex-m33 [m3]=cortex-m3
-                      [m0plus]=cortex-m0plus)
+                      [m0plus]=cortex-m0plus [rv32]=riscv32imac)
 names=("load and apply (record store + corrector)"
        "accelerometer alone (solver from pose means, store, corrector)"
        "accelerometer + gyro: the streaming calibrator, store, corrector"

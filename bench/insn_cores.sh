@@ -5,15 +5,16 @@
 # count programs are built in build/insn/CORE (-O2, assertions off, as firmware would) with that
 # core's toolchain file; the cores without an FPU use soft float.
 #   bench/insn_cores.sh                 m4f m7 m33 m3 m0plus
-#   bench/insn_cores.sh m3 m0plus       chosen cores
+#   bench/insn_cores.sh m3 m0plus rv32  chosen cores (rv32: RV32IMAC, qemu-system-riscv32)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cores=("$@")
 [ ${#cores[@]} -gt 0 ] || cores=(m4f m7 m33 m3 m0plus)
 declare -A toolchain=([m4f]=cortex-m4f [m7]=cortex-m7 [m33]=cortex-m33 [m3]=cortex-m3
-                      [m0plus]=cortex-m0plus)
+                      [m0plus]=cortex-m0plus [rv32]=riscv32imac)
 declare -A label=([m4f]="Cortex-M4F" [m7]="Cortex-M7 (FPU: single)" [m33]="Cortex-M33 (FPU)"
-                  [m3]="Cortex-M3 (no FPU: soft float)" [m0plus]="Cortex-M0+ (ARMv6-M, soft float)")
+                  [m3]="Cortex-M3 (no FPU: soft float)" [m0plus]="Cortex-M0+ (ARMv6-M, soft float)"
+                  [rv32]="RV32IMAC (no FPU: soft float)")
 echo "| core | add() per sample: at rest / moving / initial rest (largest call) | the whole solve (largest slice) | Corrector::apply() | sizeof(Calibrator<float>) |"
 echo "| --- | --- | --- | ---: | ---: |"
 for core in "${cores[@]}"; do
@@ -27,13 +28,15 @@ for core in "${cores[@]}"; do
   cmake --build "$dir" --target bench_accel_insn bench_apply_insn bench_mag_insn bench_stream_insn \
     >/dev/null
   table=$(bench/run_insn_bench.sh "$core" "$PWD/$dir" 2>&1)
-  row() { printf '%s\n' "$table" | awk -F'|' -v r="$1" '$2 ~ r { gsub(/ /, "", $'"$2"'); print $'"$2"' }'; }
-  rest=$(row "add\\(\\): still" 4) moving=$(row "add\\(\\): moving" 4) init=$(row "add\\(\\): initial" 4)
-  largest=$(row "add\\(\\): moving" 5)
+  # row TEXT COLUMN: the column of the row whose region contains TEXT (plain text, not a regular
+  # expression: awk -v reads backslashes in its own way, which differs between awks).
+  row() { printf '%s\n' "$table" | awk -F'|' -v r="$1" 'index($2, r) { gsub(/ /, "", $'"$2"'); print $'"$2"' }'; }
+  rest=$(row "add(): still" 4) moving=$(row "add(): moving" 4) init=$(row "add(): initial" 4)
+  largest=$(row "add(): moving" 5)
   # The stream program's solve() and solve_step() rows (not the accelerometer's or magnetometer's).
   solve=$(printf '%s\n' "$table" | awk -F'|' '$2 ~ /^ solve/ { gsub(/ /, "", $6); s += $6 } END { printf "%.2f M", s / 1e6 }')
   slice=$(printf '%s\n' "$table" | awk -F'|' '$2 ~ /^ solve/ { gsub(/ /, "", $5); if ($5 + 0 > m) m = $5 + 0 } END { print m }')
-  apply=$(row "Corrector::apply\\(\\): accelerometer and gyro" 4)
+  apply=$(row "Corrector::apply(): accelerometer and gyro" 4)
   size=$(printf '%s\n' "$table" | sed -n 's/.*converged.*sizeof \([0-9]*\).*/\1/p')
   echo "| ${label[$core]} | $rest / $moving / $init ($largest) | $solve ($slice) | $apply | $size |"
 done

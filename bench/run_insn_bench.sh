@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Instruction counts of the benchmark regions on one Arm target, as a Markdown table.
+# Instruction counts of the benchmark regions on one Arm or RISC-V target, as a Markdown table.
 # Usage: bench/run_insn_bench.sh PRESET [BUILD_DIR]
-#   PRESET: m4f, m7, m33, m3 or m0plus (the machine QEMU emulates); BUILD_DIR: where the programs
-#   were built (default build/PRESET; bench/insn_cores.sh builds them for the other cores).
+#   PRESET: m4f, m7, m33, m3, m0plus or rv32 (the machine QEMU emulates); BUILD_DIR: where the
+#   programs were built (default build/PRESET; bench/insn_cores.sh builds them for the other
+#   cores).
 # Counts are exact guest instructions from the QEMU TCG plugin in bench/qemu_plugin (QEMU is
 # not cycle-accurate: instructions, not cycles). Regions of the same name are summed: the table
 # gives their number, the mean and the largest. Each region includes 2 instructions of marker
@@ -20,6 +21,7 @@ case $preset in
   m7) machine=mps2-an500 ;;
   m33) machine=mps2-an505 ;;
   m3 | m0plus) machine=mps2-an385 ;;  # ARMv6-M code runs on its Cortex-M3
+  rv32) machine=riscv32:virt ;;        # qemu-system-riscv32
   *) echo "unknown preset $preset" >&2; exit 2 ;;
 esac
 echo "| region ($preset, $machine, -O2) | calls | mean | largest | total |"

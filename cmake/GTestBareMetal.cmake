@@ -1,5 +1,6 @@
-# GoogleTest built from Debian's source (/usr/src/googletest) for bare-metal Arm with picolibc:
-# no exceptions, RTTI, threads, POSIX regex or stream redirection. Provides GTest::gtest_main.
+# GoogleTest built from Debian's source (/usr/src/googletest) for bare-metal Arm or RISC-V with
+# picolibc: no exceptions, RTTI, threads, POSIX regex or stream redirection. Provides
+# GTest::gtest_main.
 set(IMUCAL_GTEST_SOURCE_DIR /usr/src/googletest/googletest CACHE PATH "GoogleTest source")
 add_library(imucal_gtest STATIC
   ${IMUCAL_GTEST_SOURCE_DIR}/src/gtest-all.cc

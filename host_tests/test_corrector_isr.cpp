@@ -1,8 +1,9 @@
-// A real interrupt applies the corrector while the main loop swaps calibrations (Arm targets
-// only: SysTick on the simulated board). With CorrectorSwap every sample the interrupt corrects
-// matches exactly one of the two calibrations, never a mix of the two. The same detector run on
-// one corrector that the main loop overwrites in place (a store of many instructions, here byte
-// by byte) does see mixed samples: the check can fail.
+// A real interrupt applies the corrector while the main loop swaps calibrations (cross targets
+// only: SysTick on the simulated Arm boards, the machine timer on RISC-V's virt). With
+// CorrectorSwap every sample the interrupt corrects matches exactly one of the two calibrations,
+// never a mix of the two. The same detector run on one corrector that the main loop overwrites
+// in place (a store of many instructions, here byte by byte) does see mixed samples: the check
+// can fail.
 #include <gtest/gtest.h>
 
 #include <cstddef>
@@ -15,11 +16,6 @@
 
 namespace imucal {
 namespace {
-
-// SysTick (ARMv7-M / ARMv8-M system control space).
-volatile std::uint32_t* const kSystCsr = reinterpret_cast<volatile std::uint32_t*>(0xE000E010u);
-volatile std::uint32_t* const kSystRvr = reinterpret_cast<volatile std::uint32_t*>(0xE000E014u);
-volatile std::uint32_t* const kSystCvr = reinterpret_cast<volatile std::uint32_t*>(0xE000E018u);
 
 CorrectorSwap<float> swap;
 Corrector<float> in_place;  // the wrong way: set() on the corrector the interrupt applies
@@ -44,12 +40,8 @@ Calibration<double> calibration(int which) {
   return c;
 }
 
-}  // namespace
-}  // namespace imucal
-
-// picolibc's vector table names the SysTick handler arm_systick_isr (weak).
-extern "C" void arm_systick_isr(void) {
-  using namespace imucal;
+// What the interrupt does: apply the corrector in use and classify the result.
+void on_timer() {
   const Corrector<float>& c = use_swap ? swap.active() : in_place;
   Vector3<float> a, w;
   c.apply(kRaw, kRaw, a, w);
@@ -61,15 +53,104 @@ extern "C" void arm_systick_isr(void) {
   interrupts = interrupts + 1;
 }
 
+}  // namespace
+}  // namespace imucal
+
+#if defined(__arm__)
+
+// SysTick (ARMv7-M / ARMv8-M system control space).
+namespace {
+volatile std::uint32_t* const kSystCsr = reinterpret_cast<volatile std::uint32_t*>(0xE000E010u);
+volatile std::uint32_t* const kSystRvr = reinterpret_cast<volatile std::uint32_t*>(0xE000E014u);
+volatile std::uint32_t* const kSystCvr = reinterpret_cast<volatile std::uint32_t*>(0xE000E018u);
+}  // namespace
+
+// picolibc's vector table names the SysTick handler arm_systick_isr (weak).
+extern "C" void arm_systick_isr(void) { imucal::on_timer(); }
+
 namespace imucal {
 namespace {
-
-void start_systick(std::uint32_t cycles) {
-  *kSystRvr = cycles - 1u;
+// An interrupt every 3000 processor clocks.
+void start_timer() {
+  *kSystRvr = 3000u - 1u;
   *kSystCvr = 0u;
   *kSystCsr = 7u;  // enable, interrupt, processor clock
 }
-void stop_systick() { *kSystCsr = 0u; }
+void stop_timer() { *kSystCsr = 0u; }
+}  // namespace
+}  // namespace imucal
+
+#elif defined(__riscv) && __riscv_xlen == 32
+
+// The machine timer of qemu virt's CLINT (hart 0): mtime counts at 10 MHz, the interrupt is
+// pending while mtime >= mtimecmp. Both are 64-bit registers, read and written as two words.
+namespace {
+volatile std::uint32_t* const kMtimecmp = reinterpret_cast<volatile std::uint32_t*>(0x02004000u);
+volatile std::uint32_t* const kMtime = reinterpret_cast<volatile std::uint32_t*>(0x0200BFF8u);
+constexpr std::uint32_t kPeriodTicks = 1200;  // 120 us: 3000 clocks at the mps2 boards' 25 MHz
+constexpr std::uint32_t kMcauseMachineTimer = 0x80000007u;
+constexpr std::uint32_t kMieMtie = 1u << 7;
+constexpr std::uint32_t kMstatusMie = 1u << 3;
+std::uint32_t saved_mtvec = 0;  // picolibc's trap handler (crt0 sets it), restored at the end
+
+// A CSR instruction: -march=rv32imac leaves out Zicsr (ISA spec 20191213), which every core
+// that takes traps has.
+#define IMUCAL_CSR(insn) ".option push\n.option arch, +zicsr\n" insn "\n.option pop"
+
+std::uint64_t mtime() {
+  std::uint32_t hi, lo;
+  do {
+    hi = kMtime[1];
+    lo = kMtime[0];
+  } while (kMtime[1] != hi);
+  return (std::uint64_t{hi} << 32) | lo;
+}
+
+// Sets mtimecmp without passing through a value below the target: high word at its maximum first.
+void set_mtimecmp(std::uint64_t when) {
+  kMtimecmp[1] = 0xFFFFFFFFu;
+  kMtimecmp[0] = static_cast<std::uint32_t>(when);
+  kMtimecmp[1] = static_cast<std::uint32_t>(when >> 32);
+}
+}  // namespace
+
+// The trap handler while the timer runs (mtvec, direct mode: every trap comes here). Anything
+// but the timer interrupt is a fault of the program: picolibc's handler is put back and the
+// faulting instruction runs again, so that it reports the fault and exits.
+extern "C" [[gnu::interrupt("machine"), gnu::aligned(4)]] void riscv_mtimer_isr() {
+  std::uint32_t mcause;
+  __asm__ volatile(IMUCAL_CSR("csrr %0, mcause") : "=r"(mcause));
+  if (mcause != kMcauseMachineTimer) {
+    __asm__ volatile(IMUCAL_CSR("csrw mtvec, %0")::"r"(saved_mtvec));
+    return;
+  }
+  set_mtimecmp(mtime() + kPeriodTicks);
+  imucal::on_timer();
+}
+
+namespace imucal {
+namespace {
+void start_timer() {
+  __asm__ volatile(IMUCAL_CSR("csrr %0, mtvec") : "=r"(saved_mtvec));
+  set_mtimecmp(mtime() + kPeriodTicks);
+  __asm__ volatile(IMUCAL_CSR("csrw mtvec, %0")::"r"(&riscv_mtimer_isr));
+  __asm__ volatile(IMUCAL_CSR("csrs mie, %0")::"r"(kMieMtie));
+  __asm__ volatile(IMUCAL_CSR("csrs mstatus, %0")::"r"(kMstatusMie) : "memory");
+}
+void stop_timer() {
+  __asm__ volatile(IMUCAL_CSR("csrc mstatus, %0")::"r"(kMstatusMie) : "memory");
+  __asm__ volatile(IMUCAL_CSR("csrc mie, %0")::"r"(kMieMtie));
+  __asm__ volatile(IMUCAL_CSR("csrw mtvec, %0")::"r"(saved_mtvec));
+}
+}  // namespace
+}  // namespace imucal
+
+#else
+#error "test_corrector_isr.cpp: no timer interrupt for this target"
+#endif
+
+namespace imucal {
+namespace {
 
 void reset_counts() {
   interrupts = 0;
@@ -126,10 +207,10 @@ TEST(CorrectorIsr, SwappedWhileAnInterruptAppliesItNeverMixes) {
   use_swap = true;
   reset_counts();
   int swaps = 0;
-  start_systick(3000);
+  start_timer();
   const bool came = run(4000, &swaps);
-  stop_systick();
-  ASSERT_TRUE(came) << "no SysTick interrupt";
+  stop_timer();
+  ASSERT_TRUE(came) << "no timer interrupt";
   std::printf("swap: %d swaps, %u interrupts: %u first, %u second, %u mixed\n", swaps,
               static_cast<unsigned>(interrupts), static_cast<unsigned>(as_first),
               static_cast<unsigned>(as_second), static_cast<unsigned>(mixed));
@@ -141,9 +222,9 @@ TEST(CorrectorIsr, SwappedWhileAnInterruptAppliesItNeverMixes) {
   // The detector is not blind: set() in place under the same interrupt gives mixed samples.
   use_swap = false;
   reset_counts();
-  start_systick(3000);
+  start_timer();
   const bool came_again = run(4000, &swaps);
-  stop_systick();
+  stop_timer();
   ASSERT_TRUE(came_again);
   std::printf("in place: %d swaps, %u interrupts: %u first, %u second, %u mixed\n", swaps,
               static_cast<unsigned>(interrupts), static_cast<unsigned>(as_first),

@@ -1,17 +1,17 @@
 #!/usr/bin/env bash
-# Proves "no heap" at link time at every optimisation level: for each Arm target and level, a
-# small build of only the footprint program (bench/footprint: the whole API in float), compiled
-# once into fat LTO objects and linked twice, without and with -flto. cmake/CheckNoHeap.cmake
-# fails the build if either program links malloc, free, operator new/delete, exception
-# allocation or a thread-safe static guard, and prints its sizes.
-#   tools/check_no_heap.sh                  every target at -Os, -O2 and -O3
-#   tools/check_no_heap.sh m4f:-Os,-O3 m7:-Os   chosen targets and levels
+# Proves "no heap" at link time at every optimisation level: for each target and level, a small
+# build of only the footprint program (bench/footprint: the whole API in float), compiled once
+# into fat LTO objects and linked twice, without and with -flto. cmake/CheckNoHeap.cmake fails
+# the build if either program links malloc, free, operator new/delete, exception allocation or a
+# thread-safe static guard, and prints its sizes.
+#   tools/check_no_heap.sh                  m4f, m7 and m33 at -Os, -O2 and -O3
+#   tools/check_no_heap.sh m4f:-Os,-O3 m7:-Os   chosen targets and levels (also m3, m0plus, rv32)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 configs=("$@")
 [ ${#configs[@]} -gt 0 ] || configs=(m4f:-Os,-O2,-O3 m7:-Os,-O2,-O3 m33:-Os,-O2,-O3)
 declare -A toolchain=([m4f]=cortex-m4f [m7]=cortex-m7 [m33]=cortex-m33 [m3]=cortex-m3
-                      [m0plus]=cortex-m0plus)
+                      [m0plus]=cortex-m0plus [rv32]=riscv32imac)
 for config in "${configs[@]}"; do
   target=${config%%:*}
   IFS=, read -ra levels <<<"${config#*:}"

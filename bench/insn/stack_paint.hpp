@@ -1,6 +1,7 @@
 // bench/insn/stack_paint.hpp: maximum stack depth of calls, measured by painting the stack (Arm
-// Cortex-M with Thumb-2, picolibc's memory layout; run under QEMU by bench/run_insn_bench.sh). On
-// ARMv6-M (Cortex-M0/M0+) the calls compile to nothing and no depth is reported.
+// Cortex-M with Thumb-2 and RV32, picolibc's memory layout; run under QEMU by
+// bench/run_insn_bench.sh). On ARMv6-M (Cortex-M0/M0+) the calls compile to nothing and no depth
+// is reported.
 //
 // What is measured: the bytes below the caller's stack pointer at the call, including the call's
 // own frame (the registers it pushes, its locals) and everything it calls in turn: what must be
@@ -31,6 +32,8 @@
 // IP, LR and the flags, from always_inline wrappers: so they run in the caller, and the caller's
 // code around the measured call changes as little as possible (bench_stream.cpp counts the
 // instructions of that code: those counts must not move because the stack is measured).
+// On RV32 the same, with a0-a3 saved, the return address in t0 (jal t0: ra, the caller's own
+// return address, stays untouched) and the area's address in t1: the call clobbers t0 and t1.
 //
 // Lower limit of the stack (never painted below): picolibc.ld puts the initial SP at __stack (the
 // top of RAM) and reserves __stack_size bytes below it. The heap grows up from the end of .bss
@@ -44,8 +47,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#if !defined(__arm__)
-#error "stack_paint.hpp: Arm Cortex-M only"
+#if !defined(__arm__) && !(defined(__riscv) && __riscv_xlen == 32)
+#error "stack_paint.hpp: Arm Cortex-M or RV32 only"
 #endif
 
 namespace imucal::bench {
@@ -69,7 +72,7 @@ static_assert(offsetof(StackPaintArea, limit) == 16 && offsetof(StackPaintArea, 
               "the assembly routines use these offsets");
 }  // namespace imucal::bench
 
-#if defined(__thumb2__)
+#if defined(__thumb2__) || defined(__riscv)
 
 extern "C" {
 // picolibc.ld: the initial stack pointer (top of RAM) and the stack size (an absolute symbol:
@@ -87,8 +90,10 @@ extern imucal::bench::StackPaintArea imucal_stack_area;
 // series' first paint or if window is 0, else max(limit, sp - window).
 // imucal_stack_measure: finds the lowest word in [lo, sp) that no longer holds the pattern (sp if
 // none), and keeps the deepest sp - that address.
-// Both preserve every register but IP, LR and the flags, and touch no memory below the SP but the
-// painted range. Weak, each in its own section: --gc-sections drops what a program does not use.
+// Both preserve every register but IP, LR and the flags (RV32: t0, t1), and touch no memory below
+// the SP but the painted range. Weak, each in its own section: --gc-sections drops what a program
+// does not use.
+#if defined(__thumb2__)
 __asm__(R"(
   .pushsection .bss.imucal_stack_area,"aw",%nobits
   .balign 4
@@ -182,6 +187,109 @@ imucal_stack_measure:
   .size imucal_stack_measure, . - imucal_stack_measure
   .popsection
 )");
+#define IMUCAL_STACK_CALL(routine) "bl " routine
+#define IMUCAL_STACK_CLOBBERS "ip", "lr", "cc", "memory"
+#else
+__asm__(R"(
+  .pushsection .bss.imucal_stack_area,"aw",%nobits
+  .balign 4
+  .weak imucal_stack_area
+  .type imucal_stack_area, %object
+imucal_stack_area:
+  .space 48
+  .size imucal_stack_area, 48
+  .popsection
+
+  .pushsection .text.imucal_stack_paint,"ax",%progbits
+  .balign 4
+  .weak imucal_stack_paint
+  .type imucal_stack_paint, %function
+imucal_stack_paint:
+  lui t1, %hi(imucal_stack_area)
+  addi t1, t1, %lo(imucal_stack_area)
+  sw a0, 0(t1)
+  sw a1, 4(t1)
+  sw a2, 8(t1)
+  sw a3, 12(t1)
+  mv a3, sp
+  lw a0, 16(t1)
+  lw a1, 28(t1)
+  beqz a1, 2f
+  beq a1, a3, 1f
+  li a2, 1
+  sw a2, 44(t1)
+1:
+  lw a1, 24(t1)
+  beqz a1, 3f
+  sub a1, a3, a1
+  bleu a1, a0, 3f
+  mv a0, a1
+  j 3f
+2:
+  sw a3, 28(t1)
+3:
+  sw a0, 32(t1)
+  lw a2, 20(t1)
+4:
+  bgeu a0, a3, 5f
+  sw a2, 0(a0)
+  addi a0, a0, 4
+  j 4b
+5:
+  lw a0, 0(t1)
+  lw a1, 4(t1)
+  lw a2, 8(t1)
+  lw a3, 12(t1)
+  jr t0
+  .size imucal_stack_paint, . - imucal_stack_paint
+  .popsection
+
+  .pushsection .text.imucal_stack_measure,"ax",%progbits
+  .balign 4
+  .weak imucal_stack_measure
+  .type imucal_stack_measure, %function
+imucal_stack_measure:
+  lui t1, %hi(imucal_stack_area)
+  addi t1, t1, %lo(imucal_stack_area)
+  sw a0, 0(t1)
+  sw a1, 4(t1)
+  sw a2, 8(t1)
+  sw a3, 12(t1)
+  mv a3, sp
+  lw a1, 28(t1)
+  beq a1, a3, 1f
+  li a2, 1
+  sw a2, 44(t1)
+1:
+  lw a0, 32(t1)
+  lw a2, 20(t1)
+2:
+  bgeu a0, a3, 3f
+  lw a1, 0(a0)
+  bne a1, a2, 3f
+  addi a0, a0, 4
+  j 2b
+3:
+  sub a0, a3, a0
+  lw a1, 36(t1)
+  bleu a0, a1, 4f
+  sw a0, 36(t1)
+4:
+  lw a1, 40(t1)
+  addi a1, a1, 1
+  sw a1, 40(t1)
+  lw a0, 0(t1)
+  lw a1, 4(t1)
+  lw a2, 8(t1)
+  lw a3, 12(t1)
+  jr t0
+  .size imucal_stack_measure, . - imucal_stack_measure
+  .popsection
+)");
+// call: auipc + jalr, which the linker relaxes to one jal where the routine is in reach.
+#define IMUCAL_STACK_CALL(routine) "call t0, " routine
+#define IMUCAL_STACK_CLOBBERS "t0", "t1", "memory"
+#endif
 
 namespace imucal::bench {
 
@@ -201,13 +309,15 @@ inline constexpr std::uint32_t kStackPattern = 0x57AC5EEDu;
 
 // Paints the free stack below the caller's SP. always_inline: it must run in the caller.
 [[gnu::always_inline]] inline void stack_paint() {
-  __asm__ volatile("bl imucal_stack_paint" ::: "ip", "lr", "cc", "memory");
+  __asm__ volatile(IMUCAL_STACK_CALL("imucal_stack_paint")::: IMUCAL_STACK_CLOBBERS);
 }
 
 // Measures the call made since stack_paint(). always_inline: it must run in the caller.
 [[gnu::always_inline]] inline void stack_measure() {
-  __asm__ volatile("bl imucal_stack_measure" ::: "ip", "lr", "cc", "memory");
+  __asm__ volatile(IMUCAL_STACK_CALL("imucal_stack_measure")::: IMUCAL_STACK_CLOBBERS);
 }
+#undef IMUCAL_STACK_CALL
+#undef IMUCAL_STACK_CLOBBERS
 
 struct StackSeries {
   std::uintptr_t max_bytes = 0;  // the deepest measured call, bytes below the caller's SP

@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
-# qemu_insn_count.sh - run an Arm bare-metal (picolibc semihosting) ELF under
-# qemu-system-arm with the insn_count TCG plugin and report exact instruction
-# counts of the regions between calls to imucal_bench_begin()/imucal_bench_end().
+# qemu_insn_count.sh - run a bare-metal (picolibc semihosting) ELF under
+# qemu-system-arm or qemu-system-riscv32 with the insn_count TCG plugin and
+# report exact instruction counts of the regions between calls to
+# imucal_bench_begin()/imucal_bench_end().
 #
-# Usage: qemu_insn_count.sh MACHINE ELF [program args...]
-#   MACHINE: e.g. mps2-an386 (M4F), mps2-an500 (M7), mps2-an505 (M33)
+# Usage: qemu_insn_count.sh [SYSTEM:]MACHINE ELF [program args...]
+#   MACHINE: e.g. mps2-an386 (M4F), mps2-an500 (M7), mps2-an505 (M33);
+#            riscv32:virt (RV32, qemu-system-riscv32 started without firmware)
 # Output:  the program's stdout, then one "insn_count <N>" line per region.
 # Exit:    the program's exit code; 124 on timeout (600 s); non-zero (3) if the
 #          program exited 0 but no region was counted; 2 on usage/setup errors.
@@ -19,8 +21,16 @@ if [ $# -lt 2 ]; then
     echo "usage: $0 MACHINE ELF [program args...]" >&2
     exit 2
 fi
-machine=$1 elf=$2
+case $1 in
+    *:*) system=${1%%:*} machine=${1#*:} ;;
+    *) system=arm machine=$1 ;;
+esac
+elf=$2
 shift 2
+nm=arm-none-eabi-nm extra=()
+if [ "$system" != arm ]; then
+    nm=riscv64-unknown-elf-nm extra=(-bios none)
+fi
 
 here=$(cd "$(dirname "$0")" && pwd)
 src=$here/insn_count.c
@@ -39,7 +49,7 @@ if [ ! -f "$so" ] || [ "$src" -nt "$so" ]; then
 fi
 
 [ -f "$elf" ] || { echo "$0: no such ELF: $elf" >&2; exit 2; }
-syms=$(arm-none-eabi-nm "$elf") || exit 2
+syms=$("$nm" "$elf") || exit 2
 begin=$(awk '$3 == "imucal_bench_begin" { print $1 }' <<<"$syms")
 end=$(awk '$3 == "imucal_bench_end" { print $1 }' <<<"$syms")
 if [ -z "$begin" ] || [ -z "$end" ]; then
@@ -55,7 +65,7 @@ for a in "$@"; do semi+=",arg=$(esc "$a")"; done
 log=$(mktemp "${TMPDIR:-/tmp}/imucal_insn_count.XXXXXX.log") || exit 2
 trap 'rm -f "$log"' EXIT
 
-timeout 600 qemu-system-arm -M "$machine" -display none -monitor none \
+timeout 600 "qemu-system-$system" -M "$machine" "${extra[@]}" -display none -monitor none \
     -serial none -chardev stdio,id=out -semihosting-config "$semi" \
     -kernel "$elf" -plugin "$(esc "$so"),begin=0x$begin,end=0x$end" \
     -d plugin -D "$log"
