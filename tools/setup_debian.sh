@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Installs what imucal needs on Debian 12 (host build, Arm cross toolchain with picolibc, QEMU,
-# the Python package's build), or with arguments those packages instead (the benchmarks').
+# Installs what imucal needs on Debian 12 (host build, Arm and RISC-V cross toolchains with
+# picolibc, QEMU, GCC's source for the RISC-V libstdc++, the Python package's build), or with
+# arguments those packages instead (the benchmarks').
 # Uses sudo when not root. Idempotent: skips apt-get when everything is already there.
 #   tools/setup_debian.sh [PACKAGE...]
 set -euo pipefail
 packages=(cmake ninja-build ccache g++ libeigen3-dev googletest libgtest-dev libbenchmark-dev
   clang-format gcc-arm-none-eabi picolibc-arm-none-eabi libstdc++-arm-none-eabi-picolibc
-  qemu-system-arm nlohmann-json3-dev clang libclang-rt-14-dev librsvg2-bin python3
+  qemu-system-arm gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf qemu-system-misc
+  gcc-12-source nlohmann-json3-dev clang libclang-rt-14-dev librsvg2-bin python3
   pybind11-dev python3-dev python3-numpy python3-pytest)
 [ $# -eq 0 ] || packages=("$@")
 missing=()
