@@ -133,7 +133,11 @@ Status GyroSolver<Scalar, N>::lm_step() {
   if (s == Status::kRunning) return status_;
   cursor_ = typename Problem::Cursor{};
   ++evaluations_;
-  return status_ = lm_.evaluated(s);
+  // Maximum damping where the undamped step is far below every sigma is the precision limit of
+  // the cost, not a failure: the accelerometer's rule (precision_limited()). A nearly exact fit
+  // ends either way depending on the last bits of its data, so on the target's rounding.
+  const Status st = lm_.evaluated(s);
+  return status_ = st == Status::kNoProgress ? precision_limited(lm_, st) : st;
 }
 
 template <typename Scalar, int N>

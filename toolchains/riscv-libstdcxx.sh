@@ -6,7 +6,7 @@
 # not: imucal's parts, the footprint program and the example firmware use no libstdc++ code.
 #   toolchains/riscv-libstdcxx.sh ARCH ABI PREFIX        e.g. rv32imac ilp32 build/libstdcxx/...
 # Installs the headers in PREFIX/include/c++/VERSION and libstdc++.a, libsupc++.a in PREFIX/lib.
-# About a minute on 2 cores. toolchains/riscv32imac.cmake runs it when PREFIX has no library yet.
+# 1-2 minutes on 2 cores. toolchains/riscv-picolibc.cmake runs it when PREFIX has no library yet.
 # IMUCAL_GCC_SOURCE_TARBALL: the GCC source tarball, if not Debian's.
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: $0 ARCH ABI PREFIX" >&2; exit 2; }
@@ -60,10 +60,11 @@ fi
 
 # --with-newlib: picolibc keeps newlib's interface (libstdc++'s newlib configuration). The link
 # tests of configure need a start-up file and the semihosting system calls, as the tests have.
-# No threads (one core, no RTOS), no TLS; exceptions and RTTI stay on inside the library, as in
-# Debian's Arm build of it. No wchar_t streams: picolibc has no wide-character stdio (getwc,
-# putwc, wcsftime), which the wide standard streams would link; Debian's Arm build has none
-# either. std::wstring stays (a header template, instantiated where it is used).
+# No threads (one core, no RTOS), no TLS, a terse terminate handler; exceptions and RTTI stay on
+# inside the library, as in Debian's Arm build of it. No wchar_t streams: picolibc has no
+# wide-character stdio (getwc, putwc, wcsftime), which the wide standard streams would link;
+# Debian's Arm build has none either. std::wstring stays (a header template, instantiated where
+# it is used).
 flags="-march=$arch -mabi=$abi --specs=picolibc.specs"
 mkdir "$work/build"
 cd "$work/build"
