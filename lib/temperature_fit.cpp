@@ -3,7 +3,6 @@
 // float (device) and double (reference).
 #include "imucal/temperature_fit.hpp"
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <cmath>
@@ -56,17 +55,14 @@ bool sse_increment(const NormalEquations<Scalar, N>& ne, const Eigen::Matrix<Sca
     scale(i) = Scalar(1) / std::sqrt(d);
   }
   for (int c = 0; c < N; ++c)
-    for (int r = 0; r < N; ++r) a(r, c) = ne.h(r, c) * scale(r) * scale(c);
-  // Plain vectors in and out, solved by ldlt_solve (normal_equations.hpp: no free() at -Os).
-  Eigen::LDLT<Matrix> ldlt;
-  ldlt.compute(a);
-  if (ldlt.info() != Eigen::Success) return false;
-  const Vector d = ldlt.vectorD();
-  if (!all_finite(d) || !(d.minCoeff() > min_pivot_ratio<Scalar, N>() * d.maxCoeff())) return false;
-  Vector rhs = scale.cwiseProduct(ne.gradient());
-  Vector hv = ldlt_solve(ldlt, rhs);  // H^-1 v = -theta (scaled)
-  rhs = scale.cwiseProduct(j);
-  Vector hj = ldlt_solve(ldlt, rhs);  // H^-1 j (scaled)
+    for (int r = c; r < N; ++r) a(r, c) = ne.h(r, c) * scale(r) * scale(c);  // lower triangle
+  Vector d;
+  if (detail::ldlt_factor(a.data(), N, d.data(), min_pivot_ratio<Scalar, N>()) != Status::kOk)
+    return false;
+  Vector hv = scale.cwiseProduct(ne.gradient());
+  detail::ldlt_solve(a.data(), d.data(), N, hv.data());  // H^-1 v = -theta (scaled)
+  Vector hj = scale.cwiseProduct(j);
+  detail::ldlt_solve(a.data(), d.data(), N, hj.data());  // H^-1 j (scaled)
   hv = scale.cwiseProduct(hv);
   hj = scale.cwiseProduct(hj);
   const Scalar r = e - j.dot(hv);

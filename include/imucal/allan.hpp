@@ -7,7 +7,6 @@
 // Header-only, no allocation, no exceptions. Every fallible call returns a Status.
 #pragma once
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -16,6 +15,7 @@
 
 #include "imucal/accel_model.hpp"
 #include "imucal/compensated_sum.hpp"
+#include "imucal/ldlt.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {
@@ -512,9 +512,10 @@ Status fit_noise_terms(const AllanPoint<Scalar>* pts, int n_points, int axis,
       for (int j = 0; j < 4; ++j) {
         if (!((mask >> j) & 1)) A(j, j) = Scalar(1);
       }
-      const Eigen::LDLT<Mat4> ldlt(A);
-      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > Scalar(0))) continue;
-      const Vec4 x = ldlt.solve(b);
+      Vec4 pivots;
+      if (detail::ldlt_factor(A.data(), 4, pivots.data(), Scalar(0)) != Status::kOk) continue;
+      Vec4 x = b;
+      detail::ldlt_solve(A.data(), pivots.data(), 4, x.data());
       bool feasible = true;
       for (int j = 0; j < 4; ++j) {
         if ((mask >> j) & 1) feasible = feasible && x(j) >= Scalar(0) && std::isfinite(x(j));
@@ -529,7 +530,11 @@ Status fit_noise_terms(const AllanPoint<Scalar>* pts, int n_points, int axis,
         best_chi2 = chi2;
         best_x = x;
         best_mask = mask;
-        best_cov = ldlt.solve(Mat4::Identity());
+        for (int c = 0; c < 4; ++c) {
+          Vec4 column = Vec4::Unit(c);
+          detail::ldlt_solve(A.data(), pivots.data(), 4, column.data());
+          best_cov.col(c) = column;
+        }
       }
     }
     if (best_chi2 < Scalar(0)) return Status::kIllConditioned;

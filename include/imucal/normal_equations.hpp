@@ -4,12 +4,12 @@
 // of rows. Never allocates (fixed-size Eigen only), never throws, never returns NaN as a result.
 #pragma once
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cmath>
 #include <cstddef>
 #include <limits>
 
+#include "imucal/ldlt.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {
@@ -29,16 +29,6 @@ inline bool all_finite(const Eigen::MatrixBase<Derived>& m) {
 template <typename Scalar, int N>
 constexpr Scalar min_pivot_ratio() {
   return Scalar(100) * Scalar(N) * std::numeric_limits<Scalar>::epsilon();
-}
-
-// Eigen's LDL^T solve with every call inside it inlined. For more than 8 unknowns Eigen's
-// triangular solve declares a stack-or-heap buffer that a fixed-size vector never uses; its
-// release, a call to free() with a null pointer, is not inlined at -Os, which links free() into
-// the firmware. Flattened, the compiler sees the call can never happen. The arithmetic is
-// Eigen's own.
-template <class Ldlt, class Vec>
-[[gnu::flatten]] Vec ldlt_solve(const Ldlt& ldlt, const Vec& b) {
-  return ldlt.solve(b);
 }
 
 template <typename Scalar, int N>
@@ -105,11 +95,12 @@ class NormalEquations {
   // independent of the parameters' units. lambda = 0 is the Gauss-Newton step.
   Status solve_damped(Scalar lambda, Vector& delta) const {
     Vector scale;
-    Eigen::LDLT<Matrix> ldlt;
-    const Status s = factor(lambda, scale, ldlt);
+    Matrix l;
+    Vector d;
+    const Status s = factor(lambda, scale, l, d);
     if (s != Status::kOk) return s;
-    Vector rhs = -(scale.cwiseProduct(v_));
-    Vector x = ldlt_solve(ldlt, rhs);
+    Vector x = -(scale.cwiseProduct(v_));
+    detail::ldlt_solve(l.data(), d.data(), N, x.data());
     x = scale.cwiseProduct(x);
     if (!all_finite(x)) return Status::kIllConditioned;
     delta = x;
@@ -191,52 +182,39 @@ class NormalEquations {
       scale(i) = Scalar(1) / std::sqrt(d);
     }
     for (int c = 0; c < N; ++c) {
-      for (int r = c; r < N; ++r) a(r, c) = a(c, r) = h(r, c) * scale(r) * scale(c);
+      for (int r = c + 1; r < N; ++r) a(r, c) = h(r, c) * scale(r) * scale(c);  // lower triangle
       a(c, c) = Scalar(1) + lambda;
     }
     return Status::kOk;
   }
 
-  // Calls f(c, column c of variance H^-1) for each c (variance < 0: f/(m-N)). One column at a time,
-  // plain vectors in and out: a matrix right-hand side, an expression, or a block as destination
-  // each take an Eigen path that links malloc and a thread-safe static (the footprint's no-heap
-  // check caught all three).
+  // Calls f(c, column c of variance H^-1) for each c (variance < 0: f/(m-N)), one column at a
+  // time.
   template <class F>
   Status for_each_inverse_column(Scalar variance, F f) const {
     if (rows_ <= N) return Status::kTooFewResiduals;
     if (!std::isfinite(variance)) return Status::kInvalidArgument;
     Vector scale;
-    Eigen::LDLT<Matrix> ldlt;
-    const Status s = factor(Scalar(0), scale, ldlt);
+    Matrix l;
+    Vector d;
+    const Status s = factor(Scalar(0), scale, l, d);
     if (s != Status::kOk) return s;
     if (variance < Scalar(0)) variance = f_ / Scalar(rows_ - N);
     for (int c = 0; c < N; ++c) {
-      Vector unit = Vector::Zero();
-      unit(c) = Scalar(1);
-      const Vector column = ldlt_solve(ldlt, unit);
+      Vector column = Vector::Zero();
+      column(c) = Scalar(1);
+      detail::ldlt_solve(l.data(), d.data(), N, column.data());
       f(c, Vector(variance * scale(c) * scale.cwiseProduct(column)));
     }
     return Status::kOk;
   }
 
-  // LDL^T of the Jacobi-scaled, damped matrix, checked for rank and conditioning.
-  Status factor(Scalar lambda, Vector& scale, Eigen::LDLT<Matrix>& ldlt) const {
-    Matrix a;
-    const Status s = scaled_matrix(lambda, scale, a);
+  // LDL^T of the Jacobi-scaled, damped matrix (L in the strict lower triangle of l, the pivots
+  // in d), checked for rank and conditioning.
+  Status factor(Scalar lambda, Vector& scale, Matrix& l, Vector& d) const {
+    const Status s = scaled_matrix(lambda, scale, l);
     if (s != Status::kOk) return s;
-    ldlt.compute(a);
-    return check_factor(ldlt);
-  }
-
-  static Status check_factor(const Eigen::LDLT<Matrix>& ldlt) {
-    if (ldlt.info() != Eigen::Success) return Status::kRankDeficient;
-    const Vector d = ldlt.vectorD();
-    if (!all_finite(d)) return Status::kIllConditioned;
-    const Scalar dmax = d.maxCoeff();
-    const Scalar dmin = d.minCoeff();
-    if (!(dmax > Scalar(0)) || !(dmin > Scalar(0))) return Status::kRankDeficient;
-    if (dmin < min_pivot_ratio<Scalar, N>() * dmax) return Status::kIllConditioned;
-    return Status::kOk;
+    return detail::ldlt_factor(l.data(), N, d.data(), min_pivot_ratio<Scalar, N>());
   }
 
   Scalar h_[static_cast<std::size_t>(kPackedSize)] = {};
