@@ -54,9 +54,19 @@ TEST(StillnessMath, FloatExp2IsWithinTwoTenthsOfAMillionthRelative) {
   }
   EXPECT_GT(n, 30000);
   std::printf("exp2: %d values, worst relative error %.3g\n", n, worst);
-  // Outside the normal range: the library's own.
+  // Outside the normal range, written out too: the top binade, subnormal results, overflow,
+  // underflow, NaN.
+  for (const float yf : {127.0f, 127.5f, 127.99f, -126.0f, -130.25f, -140.5f, -149.0f}) {
+    const double exact = std::exp2(static_cast<double>(yf));
+    const double got = static_cast<double>(detail::exp2_of(yf));
+    // A subnormal result is rounded to a multiple of 2^-149.
+    EXPECT_LE(std::abs(got - exact), (2e-7 + 1.2e-7) * exact + std::exp2(-149.0)) << "y = " << yf;
+  }
+  EXPECT_EQ(detail::exp2_of(128.0f), std::numeric_limits<float>::infinity());
   EXPECT_EQ(detail::exp2_of(200.0f), std::numeric_limits<float>::infinity());
   EXPECT_EQ(detail::exp2_of(-200.0f), 0.0f);
+  EXPECT_EQ(detail::exp2_of(-std::numeric_limits<float>::infinity()), 0.0f);
+  EXPECT_TRUE(std::isnan(detail::exp2_of(std::numeric_limits<float>::quiet_NaN())));
   EXPECT_TRUE(std::isnan(detail::log2_of(-1.0f)));
   EXPECT_EQ(detail::log2_of(0.0f), -std::numeric_limits<float>::infinity());
 }
