@@ -1,8 +1,10 @@
-// The stillness detector on its own: the float log2/exp2 its move level runs on, the gyro
+// The stillness detector on its own: the float log2/exp2 its move level runs on (and the log/exp
+// of the gyro scale search), the gyro
 // threshold that follows the moves, and glitches refused without a trace. On every target: the
 // float arithmetic is the device's.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -69,6 +71,42 @@ TEST(StillnessMath, FloatExp2IsWithinTwoTenthsOfAMillionthRelative) {
   EXPECT_TRUE(std::isnan(detail::exp2_of(std::numeric_limits<float>::quiet_NaN())));
   EXPECT_TRUE(std::isnan(detail::log2_of(-1.0f)));
   EXPECT_EQ(detail::log2_of(0.0f), -std::numeric_limits<float>::infinity());
+  // log2 outside the normal range: subnormal arguments, +inf, NaN.
+  for (const float xf : {1e-39f, 3e-42f, std::numeric_limits<float>::denorm_min()}) {
+    const double exact = std::log2(static_cast<double>(xf));
+    EXPECT_LE(std::abs(static_cast<double>(detail::log2_of(xf)) - exact), 2e-7 + ulp_of(exact))
+        << "x = " << xf;
+  }
+  EXPECT_EQ(detail::log2_of(std::numeric_limits<float>::infinity()),
+            std::numeric_limits<float>::infinity());
+  EXPECT_TRUE(std::isnan(detail::log2_of(std::numeric_limits<float>::quiet_NaN())));
+}
+
+// The natural log and exp the gyro scale search runs on (float): from log2_of and exp2_of, so
+// within their bounds plus the conversion's rounding.
+TEST(StillnessMath, FloatLogAndExpFollowLog2AndExp2) {
+  double worst_log = 0, worst_exp = 0;
+  for (double e = -80.0; e < 80.0; e += 0.0173) {
+    const float xf = static_cast<float>(std::exp(e));
+    const double exact = std::log(static_cast<double>(xf));
+    const double err = std::abs(static_cast<double>(detail::log_of(xf)) - exact);
+    EXPECT_LE(err, 2e-7 + 2 * ulp_of(exact)) << "x = " << xf;
+    worst_log = std::max(worst_log, err);
+    const float yf = static_cast<float>(e);
+    const double exact_exp = std::exp(static_cast<double>(yf));
+    const double rel = std::abs(static_cast<double>(detail::exp_of(yf)) - exact_exp) / exact_exp;
+    // Plus the exponent's error before exp2: y log2(e) rounded to float (half an ulp) and
+    // log2(e) itself as a float constant; an error d in the exponent is ln(2) d relative.
+    const double y2 = std::abs(static_cast<double>(yf)) * 1.4426950408889634;
+    const double const_err = std::abs(static_cast<double>(1.44269504f) - 1.4426950408889634);
+    const double bound = 2e-7 + 1.2e-7 +
+                         0.6931471805599453 * (0.5 * ulp_of(y2) +
+                                               std::abs(static_cast<double>(yf)) * const_err);
+    EXPECT_LE(rel, bound) << "y = " << yf;
+    worst_exp = std::max(worst_exp, rel);
+  }
+  std::printf("log: worst absolute error %.3g; exp: worst relative error %.3g\n", worst_log,
+              worst_exp);
 }
 
 // The gyro threshold: k x the floor, or first (move / first)^gap if higher, at most reach x first.

@@ -43,7 +43,7 @@ Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<
   // No scale given: a grid over log(s) in steps of sqrt(2), then golden section around the best.
   stage_ = Stage::kGrid;
   grid_k_ = 0;
-  grid_n_ = 1 + static_cast<int>(std::log(settings_.search_max / settings_.search_min) /
+  grid_n_ = 1 + static_cast<int>(detail::log_of(settings_.search_max / settings_.search_min) /
                                  kGridStep<Scalar>);
   best_cost_ = Scalar(-1);
   return status_ = Status::kRunning;
@@ -64,7 +64,7 @@ Status GyroSolver<Scalar, N>::step() {
 
 template <typename Scalar, int N>
 Status GyroSolver<Scalar, N>::search_step() {
-  const Scalar log_min = std::log(settings_.search_min);
+  const Scalar log_min = detail::log_of(settings_.search_min);
   Scalar x = Scalar(0);
   if (stage_ == Stage::kGrid) {
     x = log_min + static_cast<Scalar>(grid_k_) * kGridStep<Scalar>;
@@ -72,7 +72,7 @@ Status GyroSolver<Scalar, N>::search_step() {
     x = golden_k_ % 2 == 0 ? x1_ : x2_;
   }
   const Status s =
-      problem_.cost_slice(scaled_identity(std::exp(x)), cursor_, settings_.segments_per_step);
+      problem_.cost_slice(scaled_identity(detail::exp_of(x)), cursor_, settings_.segments_per_step);
   if (s == Status::kRunning) return status_;
   if (s != Status::kOk) return status_ = s;
   const Scalar f = cursor_.cost;
@@ -121,7 +121,7 @@ Status GyroSolver<Scalar, N>::search_step() {
     golden_k_ = 3;
   }
   // Stop at a bracket of 0.1 % in scale: the LM does the rest.
-  if (hi_ - lo_ < Scalar(1e-3)) return begin_lm(std::exp(Scalar(0.5) * (lo_ + hi_)));
+  if (hi_ - lo_ < Scalar(1e-3)) return begin_lm(detail::exp_of(Scalar(0.5) * (lo_ + hi_)));
   return status_;
 }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "imucal/elementary.hpp"
 #include "quadric.hpp"
 
 namespace imucal {
@@ -179,8 +180,10 @@ Matrix3<Scalar> rotation_exp(const Vector3<Scalar>& phi) {
     b = Scalar(0.5) - t2 / Scalar(24);
   } else {
     const Scalar t = std::sqrt(t2);
-    a = std::sin(t) / t;
-    b = (Scalar(1) - std::cos(t)) / t2;
+    Scalar sin_t, cos_t;
+    detail::sin_cos(t, sin_t, cos_t);
+    a = sin_t / t;
+    b = (Scalar(1) - cos_t) / t2;
   }
   return Matrix3<Scalar>::Identity() + a * k + b * (k * k);
 }
@@ -199,8 +202,10 @@ Matrix3<Scalar> left_jacobian(const Vector3<Scalar>& phi) {
     b = Scalar(1) / Scalar(6) - t2 / Scalar(120);
   } else {
     const Scalar t = std::sqrt(t2);
-    a = (Scalar(1) - std::cos(t)) / t2;
-    b = (t - std::sin(t)) / (t2 * t);
+    Scalar sin_t, cos_t;
+    detail::sin_cos(t, sin_t, cos_t);
+    a = (Scalar(1) - cos_t) / t2;
+    b = (t - sin_t) / (t2 * t);
   }
   return Matrix3<Scalar>::Identity() + a * k + b * (k * k);
 }

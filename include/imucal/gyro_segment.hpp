@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "imucal/accel_model.hpp"
+#include "imucal/elementary.hpp"
 
 namespace imucal {
 
@@ -86,9 +87,10 @@ void rodrigues_coefficients(Scalar theta2, Scalar& a, Scalar& b, Scalar& c) {
     return;
   }
   const Scalar theta = std::sqrt(theta2);
-  const Scalar s = std::sin(theta);
+  Scalar s, co;
+  detail::sin_cos(theta, s, co);
   a = s / theta;
-  b = (Scalar(1) - std::cos(theta)) / theta2;
+  b = (Scalar(1) - co) / theta2;
   c = (theta - s) / (theta2 * theta);
 }
 

@@ -29,55 +29,9 @@
 #include <limits>
 
 #include "imucal/accel_model.hpp"  // Vector3
+#include "imucal/elementary.hpp"   // log2_of, exp2_of
 
 namespace imucal {
-
-// log2 and exp2 for the detector's move level, which moves once per block in motion: in double
-// the standard library's; in float written out (a tenth of the instructions of picolibc's powf
-// on a Cortex-M4F, and no powf linked), within 2e-7 of the exact value (log2: absolute; exp2:
-// relative) for normal, finite arguments. log2 of anything else goes to std::log2.
-namespace detail {
-inline double log2_of(double x) { return std::log2(x); }
-inline double exp2_of(double y) { return std::exp2(y); }
-
-inline float log2_of(float x) {
-  if (!(x >= std::numeric_limits<float>::min() && x <= std::numeric_limits<float>::max()))
-    return std::log2(x);
-  std::uint32_t bits;
-  std::memcpy(&bits, &x, sizeof bits);
-  int e = static_cast<int>(bits >> 23) - 127;  // x > 0: no sign bit
-  bits = (bits & 0x007fffffu) | 0x3f800000u;   // the mantissa m in [1, 2)
-  float m;
-  std::memcpy(&m, &bits, sizeof m);
-  if (m > 1.41421356f) {  // m in [sqrt(1/2), sqrt(2)): ln m = 2 atanh(t), |t| <= 0.1716
-    m *= 0.5f;
-    ++e;
-  }
-  const float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
-  const float ln_m = t * (2.0f + t2 * (2.0f / 3.0f + t2 * (2.0f / 5.0f + t2 * (2.0f / 7.0f))));
-  return static_cast<float>(e) + ln_m * 1.44269504f;
-}
-
-inline float exp2_of(float y) {
-  if (!(y > -126.0f && y < 127.0f)) {  // NaN, overflow, or a subnormal result
-    if (y != y) return y;
-    if (y >= 128.0f) return std::numeric_limits<float>::infinity();
-    if (y >= 127.0f) return 2.0f * exp2_of(y - 1.0f);
-    return y < -150.0f ? 0.0f : std::ldexp(exp2_of(y + 64.0f), -64);
-  }
-  const int n = static_cast<int>(y + 128.5f) - 128;  // nearest integer (the sum is positive)
-  const float z = (y - static_cast<float>(n)) * 0.693147181f;  // |z| <= ln(2) / 2
-  const float p =
-      1.0f +
-      z * (1.0f + z * (0.5f + z * (1.0f / 6.0f +
-                                   z * (1.0f / 24.0f +
-                                        z * (1.0f / 120.0f + z * (1.0f / 720.0f + z / 5040.0f))))));
-  const std::uint32_t bits = static_cast<std::uint32_t>(n + 127) << 23;  // 2^n, n in [-126, 127]
-  float scale;
-  std::memcpy(&scale, &bits, sizeof scale);
-  return p * scale;
-}
-}  // namespace detail
 
 template <typename Scalar>
 struct StillnessSettings {
