@@ -111,9 +111,12 @@ bool all_finite(const V& v) {
     if (!finite(v(i))) return false;
   return true;
 }
+// The limit converted where it is a constant, not in the call: at -Os the call is not inlined,
+// and a double argument would be converted at run time (soft double on a single-precision FPU).
 template <typename Scalar>
-bool vector_within(const Vector3<Scalar>& v, double limit) {
-  return within(v(0), limit) && within(v(1), limit) && within(v(2), limit);
+bool vector_within(const Vector3<Scalar>& v, Scalar limit) {
+  return v(0) <= limit && v(0) >= -limit && v(1) <= limit && v(1) >= -limit && v(2) <= limit &&
+         v(2) >= -limit;
 }
 template <typename Scalar>
 bool magnitude_in(Scalar x, double lo, double hi) {
@@ -140,7 +143,8 @@ Bound accel_bound(const AccelVector<Scalar>& p) {
   for (int i = kAlphaYz; i <= kAlphaZx; ++i)
     if (!bounds::within(p(i), bounds::kMaxMisalignment)) return Bound::kAccelMisalignment;
   const Vector3<Scalar> b(p(kBiasX), p(kBiasY), p(kBiasZ));
-  if (!bounds::vector_within<Scalar>(accel_matrix(p) * b, bounds::kMaxAccelOffset))
+  if (!bounds::vector_within<Scalar>(accel_matrix(p) * b,
+                                     static_cast<Scalar>(bounds::kMaxAccelOffset)))
     return Bound::kAccelOffset;
   return Bound::kNone;
 }
@@ -155,7 +159,8 @@ Bound gyro_bound(const GyroVector<Scalar>& p) {
   for (int i = kGammaYz; i <= kGammaYx; ++i)
     if (!bounds::within(p(i), bounds::kMaxMisalignment)) return Bound::kGyroMisalignment;
   const Vector3<Scalar> b(p(kGyroBiasX), p(kGyroBiasY), p(kGyroBiasZ));
-  if (!bounds::vector_within<Scalar>(gyro_matrix<Scalar>(p) * b, bounds::kMaxGyroOffset))
+  if (!bounds::vector_within<Scalar>(gyro_matrix<Scalar>(p) * b,
+                                     static_cast<Scalar>(bounds::kMaxGyroOffset)))
     return Bound::kGyroOffset;
   return Bound::kNone;
 }
@@ -168,7 +173,8 @@ Bound mag_bound(const Matrix3<Scalar>& s, const Vector3<Scalar>& h, Scalar field
   for (int i = 0; i < 9; ++i)
     if (!bounds::within(s(i), bounds::kMaxSoftIron)) return Bound::kMagSoftIron;
   if (!(s.determinant() > Scalar(0))) return Bound::kMagSoftIron;
-  if (!bounds::vector_within<Scalar>(s * h, bounds::kMaxMagOffset)) return Bound::kMagOffset;
+  if (!bounds::vector_within<Scalar>(s * h, static_cast<Scalar>(bounds::kMaxMagOffset)))
+    return Bound::kMagOffset;
   if (!(field_ut > Scalar(0) && field_ut <= static_cast<Scalar>(bounds::kMaxFieldUt)))
     return Bound::kMagField;
   return Bound::kNone;
@@ -182,14 +188,15 @@ Bound temperature_bias_bound(const TemperatureBias<Scalar>& b, const Matrix3<Sca
     return Bound::kNonFinite;
   const Bound offset = accel ? Bound::kAccelOffset : Bound::kGyroOffset;
   const Bound slope = accel ? Bound::kAccelSlope : Bound::kGyroSlope;
-  if (!bounds::vector_within<Scalar>(m * b.b0,
-                                     accel ? bounds::kMaxAccelOffset : bounds::kMaxGyroOffset))
+  if (!bounds::vector_within<Scalar>(m * b.b0, accel ? static_cast<Scalar>(bounds::kMaxAccelOffset)
+                                                     : static_cast<Scalar>(bounds::kMaxGyroOffset)))
     return offset;
-  if (!bounds::vector_within<Scalar>(m * b.b1,
-                                     accel ? bounds::kMaxAccelSlope : bounds::kMaxGyroSlope))
+  if (!bounds::vector_within<Scalar>(m * b.b1, accel ? static_cast<Scalar>(bounds::kMaxAccelSlope)
+                                                     : static_cast<Scalar>(bounds::kMaxGyroSlope)))
     return slope;
-  if (!bounds::vector_within<Scalar>(
-          m * b.b2, accel ? bounds::kMaxAccelCurvature : bounds::kMaxGyroCurvature))
+  if (!bounds::vector_within<Scalar>(m * b.b2,
+                                     accel ? static_cast<Scalar>(bounds::kMaxAccelCurvature)
+                                           : static_cast<Scalar>(bounds::kMaxGyroCurvature)))
     return slope;
   return Bound::kNone;
 }
