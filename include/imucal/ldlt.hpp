@@ -15,27 +15,39 @@
 namespace imucal {
 namespace detail {
 
+// Largest size ldlt_factor takes (its scratch row is on the stack).
+constexpr int kMaxLdltSize = 16;
+
 // Factors the n x n symmetric matrix whose lower triangle is in a (column-major, leading
 // dimension n) as L D L^T: the strict lower triangle of a becomes L (unit diagonal), d the
 // pivots. kOk when every pivot is positive and finite and the smallest is at least min_ratio
 // times the largest; kIllConditioned when one is not finite or their ratio is below
-// min_ratio; kRankDeficient when one is not positive. It stops at the first pivot that fails.
+// min_ratio; kRankDeficient when one is not positive; kInvalidArgument when n is outside
+// 1..kMaxLdltSize. It stops at the first pivot that fails.
 template <typename Scalar>
 Status ldlt_factor(Scalar* a, int n, Scalar* d, Scalar min_ratio) {
+  if (n < 1 || n > kMaxLdltSize) return Status::kInvalidArgument;
+  Scalar w[kMaxLdltSize];  // L(k, j) D(j) for the column k being formed
   Scalar dmin = Scalar(0);
   Scalar dmax = Scalar(0);
   for (int k = 0; k < n; ++k) {
-    Scalar* const lk = a + k;  // row k: lk[j * n] = L(k, j)
-    Scalar dk = lk[k * n];
-    for (int j = 0; j < k; ++j) dk -= lk[j * n] * (lk[j * n] * d[j]);
+    Scalar* const ck = a + k * n;  // column k
+    Scalar dk = ck[k];
+    for (int j = 0; j < k; ++j) {
+      const Scalar lkj = a[j * n + k];
+      w[j] = lkj * d[j];
+      dk -= lkj * w[j];
+    }
     if (!std::isfinite(dk)) return Status::kIllConditioned;
     if (!(dk > Scalar(0))) return Status::kRankDeficient;
     d[k] = dk;
-    for (int i = k + 1; i < n; ++i) {
-      Scalar s = a[k * n + i];
-      for (int j = 0; j < k; ++j) s -= a[j * n + i] * (lk[j * n] * d[j]);  // L(i,j) L(k,j) D(j)
-      a[k * n + i] = s / dk;
+    // Column k below the diagonal: A(i, k) - sum_j L(i, j) w(j), a column at a time.
+    for (int j = 0; j < k; ++j) {
+      const Scalar* const cj = a + j * n;
+      const Scalar wj = w[j];
+      for (int i = k + 1; i < n; ++i) ck[i] -= cj[i] * wj;
     }
+    for (int i = k + 1; i < n; ++i) ck[i] /= dk;
     if (k == 0 || dk < dmin) dmin = dk;
     if (dk > dmax) dmax = dk;
   }
@@ -46,10 +58,9 @@ Status ldlt_factor(Scalar* a, int n, Scalar* d, Scalar min_ratio) {
 // Solves L D L^T x = b in place (x holds b on entry), with L and d from ldlt_factor.
 template <typename Scalar>
 void ldlt_solve(const Scalar* l, const Scalar* d, int n, Scalar* x) {
-  for (int i = 0; i < n; ++i) {  // L y = b
-    Scalar s = x[i];
-    for (int j = 0; j < i; ++j) s -= l[j * n + i] * x[j];
-    x[i] = s;
+  for (int j = 0; j < n; ++j) {  // L y = b, a column of L at a time
+    const Scalar xj = x[j];
+    for (int i = j + 1; i < n; ++i) x[i] -= l[j * n + i] * xj;
   }
   for (int i = 0; i < n; ++i) x[i] /= d[i];  // D z = y
   for (int i = n - 1; i >= 0; --i) {         // L^T x = z
