@@ -518,7 +518,8 @@ class Calibrator {
   }
 
   // Routes the current block (by reference into the ring: no copies on the per-sample path).
-  void close_block() {
+  // Out of line: once per block, and inlined its registers would cost every sample.
+  __attribute__((noinline)) void close_block() {
     if (block_.n == 0) return;
     if (block_.still) {
       delay_.add(block_);
