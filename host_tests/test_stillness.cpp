@@ -99,9 +99,9 @@ TEST(StillnessMath, FloatLogAndExpFollowLog2AndExp2) {
     // log2(e) itself as a float constant; an error d in the exponent is ln(2) d relative.
     const double y2 = std::abs(static_cast<double>(yf)) * 1.4426950408889634;
     const double const_err = std::abs(static_cast<double>(1.44269504f) - 1.4426950408889634);
-    const double bound = 2e-7 + 1.2e-7 +
-                         0.6931471805599453 * (0.5 * ulp_of(y2) +
-                                               std::abs(static_cast<double>(yf)) * const_err);
+    const double bound =
+        2e-7 + 1.2e-7 +
+        0.6931471805599453 * (0.5 * ulp_of(y2) + std::abs(static_cast<double>(yf)) * const_err);
     EXPECT_LE(rel, bound) << "y = " << yf;
     worst_exp = std::max(worst_exp, rel);
   }

@@ -1,6 +1,6 @@
-// bench/insn/bench_accel.cpp: instruction counts of the accelerometer path on the Arm targets
-// (run by bench/run_insn_bench.sh under QEMU with the counting plugin). 40 simulated poses in raw
-// 16-bit counts, float, as on the device. Not a test: it reports, it does not judge.
+// bench/insn/bench_accel.cpp: instruction counts of the accelerometer path on the cross
+// targets (run by bench/run_insn_bench.sh under QEMU with the counting plugin). 40 simulated poses
+// in raw 16-bit counts, float, as on the device. Not a test: it reports, it does not judge.
 #include <cstdint>
 #include <cstdio>
 

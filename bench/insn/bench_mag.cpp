@@ -1,7 +1,8 @@
-// bench/insn/bench_mag.cpp: instruction counts of the magnetometer calibration on the Arm targets
-// (bench/run_insn_bench.sh, QEMU with the counting plugin), float as on the device: the per-sample
-// collector over a simulated free-hand stream (60 s at 50 Hz, raw counts), the whole solve with a
-// full collector, and the alignment from 16 rests. Not a test: it reports, it does not judge.
+// bench/insn/bench_mag.cpp: instruction counts of the magnetometer calibration on the cross
+// targets (bench/run_insn_bench.sh, QEMU with the counting plugin), float as on the device: the
+// per-sample collector over a simulated free-hand stream (60 s at 50 Hz, raw counts), the whole
+// solve with a full collector, and the alignment from 16 rests. Not a test: it reports, it does not
+// judge.
 #include <cstdint>
 #include <cstdio>
 

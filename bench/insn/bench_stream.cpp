@@ -1,7 +1,7 @@
-// bench/insn/bench_stream.cpp: instruction counts of the streaming calibrator on the Arm targets
-// (bench/run_insn_bench.sh, QEMU with the counting plugin): the real xsens recording (51,175
-// samples, raw counts) fed one sample at a time, each add() its own region, named by how the
-// calibrator classified the sample; then the solve, each solve_step() its own region. The
+// bench/insn/bench_stream.cpp: instruction counts of the streaming calibrator on the cross
+// targets (bench/run_insn_bench.sh, QEMU with the counting plugin): the real xsens recording
+// (51,175 samples, raw counts) fed one sample at a time, each add() its own region, named by how
+// the calibrator classified the sample; then the solve, each solve_step() its own region. The
 // script sums regions of the same name. Not a test: it reports, it does not judge.
 // It also reports the deepest stack use of add() and of solve() + solve_step() ("STACK" lines:
 // bytes below main's stack pointer, stack_paint.hpp), painted before and measured after each

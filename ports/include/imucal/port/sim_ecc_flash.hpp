@@ -1,5 +1,5 @@
 // imucal/port/sim_ecc_flash.hpp: a simulated flash that fails as MCU flash with ECC does, for
-// tests on the host and on the Arm targets. Never allocates: the capacity is the template's.
+// tests on the host and on the cross targets. Never allocates: the capacity is the template's.
 //
 //   - It programs whole program units (Unit bytes, aligned), each at most once between erases:
 //     programming a unit twice fails (kStorageError) and is counted (double_programs()).

@@ -1,5 +1,5 @@
 // imucal/port/sim_nor_flash.hpp: a simulated NOR flash in RAM, for tests on the host and on the
-// Arm targets. It enforces NOR semantics (erase to 0xFF per erase unit, program only clears
+// cross targets. It enforces NOR semantics (erase to 0xFF per erase unit, program only clears
 // bits, no program call across a page) and can cut the power after any number of byte
 // operations: the byte being written when the power goes is left half-done (for a program, some
 // of the bits it should clear; for an erase, some of the bits set), later bytes of that call are
