@@ -29,7 +29,9 @@ Matrix3<double> random_gyro_matrix(sim::Random& rng) {
 TEST(GyroSegment, FloatSinCosAreWithinTwoTenthsOfAMillionth) {
   double worst = 0;
   int n = 0;
-  for (double x = -8192.0; x <= 8192.0; x += 0.0371) {
+  // Every 0.37 rad over the whole range, every 0.37 mrad over the first 8 rad: 88,000 values
+  // (each compared with double sin and cos, soft float on most targets).
+  for (double x = -8192.0; x <= 8192.0; x += 0.371) {
     for (const double xs : {x, x * 1e-3}) {
       const float xf = static_cast<float>(xs);
       float s = 0, c = 0;
