@@ -238,7 +238,7 @@ void ldlt_matches_eigen(std::uint64_t seed) {
     EXPECT_LT((x - expected).norm(), 10 * N * eps_d * cond * expected.norm())
         << "n " << N << " cond " << cond;
     ASSERT_EQ((ldlt_solution<float, N>(m, b, x)), Status::kOk) << "n " << N << " cond " << cond;
-    const double eps_f = std::numeric_limits<float>::epsilon();
+    const double eps_f = static_cast<double>(std::numeric_limits<float>::epsilon());
     EXPECT_LT((x - expected).norm(), 10 * N * eps_f * cond * expected.norm())
         << "n " << N << " cond " << cond;
   }
