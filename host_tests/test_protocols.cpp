@@ -1,12 +1,15 @@
 // The protocols people record, each with default settings: initial rests from none to a minute,
 // rests held in the hand, 1 s rests, 10 and 50 poses, high rates on a warming board, and an
 // accelerometer without a gyro. Each must recover the simulator's truth within 3 sigma, in float
-// and in double, and find the rests a person would mark.
+// and in double (one simulated recording streamed into both), and find the rests a person would
+// mark.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <vector>
 
 #include "imucal/calibrator.hpp"
@@ -61,21 +64,36 @@ sim::AccelTruth effective_accel_truth(const Cal& cal, const sim::Recording& rec,
   return t;
 }
 
-// Each parameter's error in sigmas (accelerometer's 9, then the gyro's 12; NaN for one held).
-constexpr int kAllParams = int{kAccelParams} + int{kGyroParams};
-using Errors = Eigen::Matrix<double, kAllParams, 1>;
-
+// A calibrator with the defaults (only the units and gravity) that a recording streams into,
+// and the first sample it refused. Its storage is static: too large for a small board's stack.
 template <typename Scalar>
-void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expect{},
-         Errors* errors = nullptr) {
+struct Fed {
+  BigCalibrator<Scalar>& cal = storage();
+  Status refused = Status::kOk;
+  explicit Fed(const Scenario& sc) {
+    CalibratorSettings<Scalar> s;
+    s.accel.gravity = static_cast<Scalar>(sc.plan.gravity);
+    s.gyro.nominal_scale = static_cast<Scalar>(sc.gyro.nominal_scale);
+    cal.reset(s);
+  }
+  // Taken, every one (motion before the first still period is reported, not refused).
+  void add(const sim::MotionSample& m) {
+    const Status a = cal.add(to_sample<Scalar>(m));
+    if (a != Status::kOk && a != Status::kInitialRestDisturbed && refused == Status::kOk)
+      refused = a;
+  }
+  static BigCalibrator<Scalar>& storage() {
+    static BigCalibrator<Scalar> c;
+    return c;
+  }
+};
+
+// The scenario simulated once: each sample goes to `feed` (the calibrators) as it is made, and
+// what the checks need of it into `truth`.
+sim::Recording simulate(Scenario sc, std::uint64_t seed, std::vector<TruthSample>& truth,
+                        const std::function<void(const sim::MotionSample&)>& feed) {
   sc.plan.record_attitude = false;
   sim::Random rng(seed);
-  static BigCalibrator<Scalar> cal;
-  CalibratorSettings<Scalar> s;  // defaults: only the units and gravity
-  s.accel.gravity = static_cast<Scalar>(sc.plan.gravity);
-  s.gyro.nominal_scale = static_cast<Scalar>(sc.gyro.nominal_scale);
-  cal.reset(s);
-  std::vector<TruthSample> truth;
   const sim::MotionPlan& pl = sc.plan;  // the simulator's own estimate of the length, +10 %
   const auto length = static_cast<std::size_t>(
       1.1 * pl.rate_hz *
@@ -83,18 +101,25 @@ void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expe
            pl.poses * 0.5 * (pl.rest_min_s + pl.rest_max_s + pl.move_min_s + pl.move_max_s)) +
       64);
   truth.reserve(length);
-  // Taken, every one (motion before the first still period is reported, not refused).
-  Status refused = Status::kOk;
-  const sim::Recording rec =
-      sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng, [&](const sim::MotionSample& m) {
-        const ImuSample<Scalar> x = to_sample<Scalar>(m);
-        const Status a = cal.add(x);
-        if (a != Status::kOk && a != Status::kInitialRestDisturbed && refused == Status::kOk)
-          refused = a;
-        const float rate = static_cast<float>(m.rate.norm());
-        truth.push_back({x.t_us, m.still ? -rate : rate});
-      });
-  ASSERT_EQ(refused, Status::kOk) << name << to_string(refused);
+  return sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng, [&](const sim::MotionSample& m) {
+    feed(m);
+    const float rate = static_cast<float>(m.rate.norm());
+    truth.push_back({to_sample<float>(m).t_us, m.still ? -rate : rate});
+  });
+}
+
+// Each parameter's error in sigmas (accelerometer's 9, then the gyro's 12; NaN for one held).
+constexpr int kAllParams = int{kAccelParams} + int{kGyroParams};
+using Errors = Eigen::Matrix<double, kAllParams, 1>;
+
+// The checks of one calibrator fed the recording: every sample taken, the solve succeeded, the
+// rests found, no pose reaching into a move, and the parameters within 3 sigma of the truth (or,
+// given `errors`, each parameter's error in sigmas for the caller to judge with others).
+template <typename Scalar>
+void check(const char* name, Fed<Scalar>& fed, const Scenario& sc, const sim::Recording& rec,
+           const std::vector<TruthSample>& truth, Expect expect, Errors* errors = nullptr) {
+  BigCalibrator<Scalar>& cal = fed.cal;
+  ASSERT_EQ(fed.refused, Status::kOk) << name << to_string(fed.refused);
   const Status st = cal.solve_all();
   const Progress p = cal.progress();
   const Calibration<Scalar>& c = cal.calibration();
@@ -140,10 +165,28 @@ void run(const char* name, Scenario sc, std::uint64_t seed, Expect expect = Expe
               static_cast<double>(c.gyro.residual_rms) / kDeg);
 }
 
+// One recording, one calibrator.
 template <typename Scalar>
-void both(const char* name, const Scenario& sc, std::uint64_t seed, Expect e = Expect{}) {
-  run<float>(name, sc, seed, e);
-  run<double>(name, sc, seed, e);
+void run(const char* name, const Scenario& sc, std::uint64_t seed, Expect expect = Expect{},
+         Errors* errors = nullptr) {
+  Fed<Scalar> fed(sc);
+  std::vector<TruthSample> truth;
+  const sim::Recording rec =
+      simulate(sc, seed, truth, [&](const sim::MotionSample& m) { fed.add(m); });
+  check(name, fed, sc, rec, truth, expect, errors);
+}
+
+// One recording, simulated once, streamed into a float and a double calibrator side by side.
+void both(const char* name, const Scenario& sc, std::uint64_t seed, Expect expect = Expect{}) {
+  Fed<float> f(sc);
+  Fed<double> d(sc);
+  std::vector<TruthSample> truth;
+  const sim::Recording rec = simulate(sc, seed, truth, [&](const sim::MotionSample& m) {
+    f.add(m);
+    d.add(m);
+  });
+  check(name, f, sc, rec, truth, expect);
+  check(name, d, sc, rec, truth, expect);
 }
 
 Scenario base(double initial_rest, int poses) {
@@ -165,7 +208,7 @@ TEST(Protocols, InitialRestFromNoneToAMinute) {
     // With none (0.3 s, before the first move), the first rest serves as the initial rest.
     Expect e;
     e.rests_found = initial < 1.0 ? 1.0 - 1.0 / (kProtocolPoses + 1) : 1.0;
-    both<float>(name, base(initial, kProtocolPoses), 41, e);
+    both(name, base(initial, kProtocolPoses), 41, e);
   }
 }
 
@@ -176,16 +219,16 @@ TEST(Protocols, RestsHeldInTheHand) {
   // The hand's own acceleration: twice the accelerometer's noise (0.008 m/s^2). Its threshold
   // stays at 4x the rest variance (a looser one joins rests across slow turns on real data).
   sc.plan.hand_accel = 0.016;
-  both<float>("hand-held, quiet start", sc, 42);
+  both("hand-held, quiet start", sc, 42);
   sc.plan.hand_initial_rest = true;
-  both<float>("hand-held throughout", sc, 43);
+  both("hand-held throughout", sc, 43);
 }
 
 TEST(Protocols, OneSecondRests) {
   Scenario sc = base(10.0, kProtocolPoses);
   sc.plan.rest_min_s = 1.0;
   sc.plan.rest_max_s = 1.2;
-  both<float>("1 s rests at 100 Hz", sc, 44);
+  both("1 s rests at 100 Hz", sc, 44);
 }
 
 // Ten poses: 9 accelerometer parameters from 10 pose residuals, one degree of freedom. Sigma
@@ -256,7 +299,7 @@ TEST(Protocols, TenPosesSigmaIsHonest) {
   }
 }
 
-TEST(Protocols, FiftyPoses) { both<float>("50 poses", base(10.0, 49), 46); }
+TEST(Protocols, FiftyPoses) { both("50 poses", base(10.0, 49), 46); }
 
 // High rates on a board warming up (the accelerometer drifting at 0.1 count/s at first). The
 // drift moves the bias each pose sees: the accelerometer's sigma takes it in through the floor
@@ -269,7 +312,7 @@ TEST(Protocols, HighRatesOnAWarmingBoard) {
     sc.plan.accel_drift = 0.1;
     char name[40];
     std::snprintf(name, sizeof name, "%.0f Hz, warming", rate);
-    both<float>(name, sc, 47);
+    both(name, sc, 47);
   }
 }
 
