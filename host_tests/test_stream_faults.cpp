@@ -349,8 +349,8 @@ TEST_F(StreamFaults, FaultsDuringTheInitialRestRestartIt) {
 
 // ---- Long runs --------------------------------------------------------------------------------
 
-// 24 hours at 1 kHz on the host (86.4 M samples); 75 minutes on the Arm boards (QEMU runs
-// them at a few hundred million instructions a second), still across a wrap of the 32-bit
+// 24 hours at 1 kHz on the host (86.4 M samples); 75 minutes on the boards, Arm and RV32 (QEMU
+// runs them at a few hundred million instructions a second), still across a wrap of the 32-bit
 // microsecond clock (71.6 min).
 #if defined(IMUCAL_TEST_ASAN)
 // The sanitizer run (preset host-asan) looks for memory errors, not drift: the same code paths
@@ -360,13 +360,13 @@ constexpr double kLongHours = 1.25;
 constexpr bool kWithDouble = true;
 #elif defined(IMUCAL_SMALL_TARGET)
 constexpr double kLongHours = 1.25;
-constexpr bool kWithDouble = false;  // soft-float double on the M4F/M33: the exact mean is enough
+constexpr bool kWithDouble = false;  // soft-float double on the boards: the exact mean is enough
 #else
 constexpr double kLongHours = 24.0;
 constexpr bool kWithDouble = true;
 #endif
 
-// Cheap deterministic integer noise (xorshift32; the Arm boards have no double FPU, so the
+// Cheap deterministic integer noise (xorshift32; the boards have no double FPU, so the
 // generator stays in integers on the per-sample path): a sum of four uniform bytes, centred and
 // scaled, near-Gaussian with a standard deviation of about 147.8 / divisor counts.
 struct Noise {

@@ -2,10 +2,10 @@
 # Every test: set up, check formatting, then build and run the test suite on the host (plain,
 # then built by Clang with ASan + UBSan) and, cross-built, on Cortex-M4F, M7, M33, M3 and M0+
 # under qemu-system-arm and on RV32IMAC under qemu-system-riscv32 (ctest with the emulator). The
-# estimator's long tests run on the host and the M4F; the other targets run the tests of what
-# can differ between targets and the example firmware. The cross builds also prove "no heap" at
-# link time and print sizes; consumers, fuzzing and instruction counts follow. Each step prints
-# its wall time.
+# estimator's long tests run on the host and on one target per architecture, the M4F and RV32;
+# the other targets run the tests of what can differ between targets and the example firmware.
+# The cross builds also prove "no heap" at link time and print sizes; consumers, fuzzing and the
+# instruction counts (M4F and RV32) follow. Each step prints its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
@@ -68,6 +68,9 @@ tools/fuzz.sh 60
 
 step "instruction counts (Cortex-M4F, exact, QEMU TCG plugin)"
 bench/run_insn_bench.sh m4f
+
+step "instruction counts (RV32IMAC, soft float, exact, QEMU TCG plugin)"
+bench/run_insn_bench.sh rv32
 
 step "whole-process time of imucal calibrate on the xsens recording"
 bench/cli_time.sh

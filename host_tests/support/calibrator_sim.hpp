@@ -16,8 +16,8 @@
 
 namespace imucal::test {
 
-// The Arm boards have 2-4 MB of RAM and the simulated recording is kept whole (88 bytes a
-// sample): fewer poses there, the same tests.
+// The boards (Arm and RV32) have 2-4 MB of RAM and the simulated recording is kept whole (88
+// bytes a sample): fewer poses there, the same tests.
 #ifdef IMUCAL_SMALL_TARGET
 constexpr int kPoses = 14;
 constexpr double kInitialRest = 12.0;
