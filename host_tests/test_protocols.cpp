@@ -297,11 +297,14 @@ TEST(Protocols, TenPosesSigmaIsHonest) {
     // 3 sigma), 0.555..1.489.
     EXPECT_GT(rms, 0.55) << accel_parameter_name(k);
     EXPECT_LT(rms, 1.49) << accel_parameter_name(k);
-#elif defined(IMUCAL_SMALL_TARGET)
-    // 40 runs: the RMS of 40 unit normals lies within about 0.78..1.22 (3 sigma).
-    EXPECT_GT(rms, 0.7) << accel_parameter_name(k);
+#elif defined(IMUCAL_SMALL_TARGET) || defined(IMUCAL_TEST_ASAN)
+    // 40 runs: the quantiles of chi^2_40 at 0.135 % and 99.865 % (18.3 and 72.3) put the RMS of
+    // 40 unit normals within 0.677..1.344 (3 sigma).
+    EXPECT_GT(rms, 0.67) << accel_parameter_name(k);
     EXPECT_LT(rms, 1.35) << accel_parameter_name(k);
 #else
+    // 300 runs: sampling alone gives 0.879..1.124 (3 sigma); at ten poses the linearised sigma
+    // runs up to about 10 % low (alpha_yz's RMS is 1.10 on the host), hence 0.8..1.25.
     EXPECT_GT(rms, 0.8) << accel_parameter_name(k);
     EXPECT_LT(rms, 1.25) << accel_parameter_name(k);
 #endif
