@@ -200,7 +200,12 @@ Eigen::Matrix<double, N, N> random_spd(sim::Random& rng, double cond) {
   Eigen::Matrix<double, N, N> g;
   for (int c = 0; c < N; ++c)
     for (int r = 0; r < N; ++r) g(r, c) = rng.normal();
-  const Eigen::Matrix<double, N, N> q = g.householderQr().householderQ();
+  // Q: g's columns orthonormalised (modified Gram-Schmidt; Gaussian columns are independent).
+  Eigen::Matrix<double, N, N> q = g;
+  for (int c = 0; c < N; ++c) {
+    for (int k = 0; k < c; ++k) q.col(c) -= q.col(k).dot(q.col(c)) * q.col(k);
+    q.col(c).normalize();
+  }
   Eigen::Matrix<double, N, 1> ev;
   for (int i = 0; i < N; ++i) ev(i) = std::pow(cond, -double(i) / std::max(N - 1, 1));
   return q * ev.asDiagonal() * q.transpose();
