@@ -105,7 +105,7 @@ sim::Recording simulate(Scenario sc, std::uint64_t seed, std::vector<TruthSample
   return sim::simulate_motion(sc.plan, sc.acc, sc.gyro, rng, [&](const sim::MotionSample& m) {
     feed(m);
     const float rate = static_cast<float>(m.rate.norm());
-    truth.push_back({to_sample<float>(m).t_us, m.still ? -rate : rate});
+    truth.push_back({sample_time_us(m), m.still ? -rate : rate});
   });
 }
 

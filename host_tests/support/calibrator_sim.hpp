@@ -26,10 +26,15 @@ constexpr int kPoses = 24;
 constexpr double kInitialRest = 20.0;
 #endif
 
+// A simulated sample's device timestamp (microseconds, as the calibrator takes it).
+inline std::uint32_t sample_time_us(const sim::MotionSample& m) {
+  return static_cast<std::uint32_t>(std::llround(m.t * 1e6));
+}
+
 template <typename Scalar>
 ImuSample<Scalar> to_sample(const sim::MotionSample& m) {
   ImuSample<Scalar> s;
-  s.t_us = static_cast<std::uint32_t>(std::llround(m.t * 1e6));
+  s.t_us = sample_time_us(m);
   s.acc = m.acc.cast<Scalar>();
   s.gyro = m.gyro.cast<Scalar>();
   return s;
