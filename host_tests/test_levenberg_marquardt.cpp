@@ -87,6 +87,10 @@ TEST(LevenbergMarquardt, StoppingReasons) {
   bad.initial_lambda = -1.0;
   LevenbergMarquardt<double, 2> bad_settings(bad);
   EXPECT_EQ(bad_settings.run(Rosenbrock{}, Eigen::Vector2d(0, 0)), Status::kInvalidArgument);
+
+  LevenbergMarquardt<double, 2> bad_size;
+  EXPECT_EQ(bad_size.begin(Eigen::Vector2d(0, 0), 3), Status::kInvalidArgument);
+  EXPECT_EQ(bad_size.begin(Eigen::Vector2d(0, 0), 0), Status::kInvalidArgument);
 }
 
 // The minimum (x = 5) lies beyond a wall of NaN at x = 2: the driver creeps up to the wall with

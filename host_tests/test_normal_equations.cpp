@@ -193,6 +193,52 @@ TEST(NormalEquations, FloatAgreesWithDouble) {
   EXPECT_LT((df.cast<double>() - dd).norm(), 1e-5 * dd.norm());
 }
 
+// An accumulator of capacity 7 sized to 4 at run time is the 4-unknown one: the same numbers to
+// the last bit (the same arithmetic), the entries beyond its size ignored in the rows and 0 in
+// every result. One accumulator serves both gyro solves (bias held or refined) this way.
+TEST(NormalEquations, RunTimeSizeIsTheSmallerProblem) {
+  const Batch b = random_batch(6);
+  sim::Random rng(7);
+  NE small;
+  NormalEquations<double, 7> wide;
+  wide.resize(kN);
+  ASSERT_EQ(wide.size(), kN);
+  for (int r = 0; r < kRows; ++r) {
+    Eigen::Matrix<double, 7, 1> j;
+    j << b.j.row(r).transpose(), rng.normal(), kNaN, kInf;  // beyond the size: ignored
+    ASSERT_EQ(small.add(b.j.row(r).transpose(), b.e(r), b.w(r)), Status::kOk);
+    ASSERT_EQ(wide.add(j, b.e(r), b.w(r)), Status::kOk);
+  }
+  EXPECT_EQ(wide.rows(), small.rows());
+  EXPECT_EQ(wide.weighted_sse(), small.weighted_sse());
+  EXPECT_EQ(wide.gradient_cosine(), small.gradient_cosine());
+  Vec d4, sd4;
+  Eigen::Matrix<double, 7, 1> d7, sd7;
+  ASSERT_EQ(small.solve_damped(0.1, d4), Status::kOk);
+  ASSERT_EQ(wide.solve_damped(0.1, d7), Status::kOk);
+  EXPECT_EQ(d7.head<kN>(), d4);
+  EXPECT_EQ(d7.tail<3>(), Eigen::Vector3d::Zero());
+  EXPECT_EQ(wide.predicted_decrease(d7), small.predicted_decrease(d4));
+  ASSERT_EQ(small.standard_deviations(sd4), Status::kOk);
+  ASSERT_EQ(wide.standard_deviations(sd7), Status::kOk);
+  EXPECT_EQ(sd7.head<kN>(), sd4);
+  EXPECT_EQ(sd7.tail<3>(), Eigen::Vector3d::Zero());
+  Eigen::Matrix<double, kN, kN> c4;
+  Eigen::Matrix<double, 7, 7> c7;
+  ASSERT_EQ(small.covariance(c4), Status::kOk);
+  ASSERT_EQ(wide.covariance(c7), Status::kOk);
+  EXPECT_EQ((c7.topLeftCorner<kN, kN>()), c4);
+  EXPECT_EQ(c7.rightCols<3>().cwiseAbs().sum() + c7.bottomRows<3>().cwiseAbs().sum(), 0.0);
+  EXPECT_EQ((wide.information().topLeftCorner<kN, kN>()), small.information());
+  EXPECT_EQ(wide.h(5, 1), 0.0);
+  // A size outside 1..N keeps the present one (and clears, as any resize).
+  wide.resize(8);
+  EXPECT_EQ(wide.size(), kN);
+  EXPECT_EQ(wide.rows(), 0);
+  wide.resize(0);
+  EXPECT_EQ(wide.size(), kN);
+}
+
 // A random symmetric positive-definite n x n matrix (column-major in m) with condition number
 // about `cond`: Q diag(...) Q^T, eigenvalues spaced geometrically from 1 to 1 / cond.
 template <int N>

@@ -14,16 +14,17 @@ constexpr Scalar kGridStep = Scalar(0.34657359027997264);
 
 }  // namespace
 
-template <typename Scalar, int N>
-typename GyroSolver<Scalar, N>::Vector GyroSolver<Scalar, N>::scaled_identity(Scalar s) const {
+template <typename Scalar>
+typename GyroSolver<Scalar>::Vector GyroSolver<Scalar>::scaled_identity(Scalar s) const {
   Vector p = Vector::Zero();
   p(kGyroScaleX) = p(kGyroScaleY) = p(kGyroScaleZ) = s;
   return p;
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<Scalar>& b0) {
+template <typename Scalar>
+Status GyroSolver<Scalar>::start(const GyroData<Scalar>& data, const Vector3<Scalar>& b0) {
   problem_.data = data;
+  problem_.refine_bias = settings_.refine_bias;
   b0_ = b0;
   evaluations_ = 0;
   cursor_ = typename Problem::Cursor{};
@@ -32,7 +33,7 @@ Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<
       !(settings_.nominal_scale >= Scalar(0)) || !(settings_.search_min > Scalar(0)) ||
       !(settings_.search_max > settings_.search_min))
     return status_ = Status::kInvalidArgument;
-  if (data.move_count < gyro_min_moves(N)) return status_ = Status::kTooFewMoves;
+  if (data.move_count < gyro_min_moves(problem_.size())) return status_ = Status::kTooFewMoves;
   for (int k = 0; k < data.move_count; ++k) {
     const GyroMove& m = data.moves[k];
     if (m.from_pose < 0 || m.from_pose >= data.pose_count || m.to_pose < 0 ||
@@ -49,21 +50,21 @@ Status GyroSolver<Scalar, N>::start(const GyroData<Scalar>& data, const Vector3<
   return status_ = Status::kRunning;
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::begin_lm(Scalar s) {
+template <typename Scalar>
+Status GyroSolver<Scalar>::begin_lm(Scalar s) {
   stage_ = Stage::kLm;
   cursor_ = typename Problem::Cursor{};
-  return status_ = lm_.begin(scaled_identity(s));
+  return status_ = lm_.begin(scaled_identity(s), problem_.size());
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::step() {
+template <typename Scalar>
+Status GyroSolver<Scalar>::step() {
   if (status_ != Status::kRunning) return status_;
   return stage_ == Stage::kLm ? lm_step() : search_step();
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::search_step() {
+template <typename Scalar>
+Status GyroSolver<Scalar>::search_step() {
   const Scalar log_min = detail::log_of(settings_.search_min);
   Scalar x = Scalar(0);
   if (stage_ == Stage::kGrid) {
@@ -125,8 +126,8 @@ Status GyroSolver<Scalar, N>::search_step() {
   return status_;
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::lm_step() {
+template <typename Scalar>
+Status GyroSolver<Scalar>::lm_step() {
   if (!lm_.evaluation_pending()) return status_ = lm_.status();
   const Status s = problem_.accumulate_slice(lm_.evaluation_point(), lm_.evaluation_accumulator(),
                                              cursor_, settings_.segments_per_step);
@@ -140,13 +141,13 @@ Status GyroSolver<Scalar, N>::lm_step() {
   return status_ = st == Status::kNoProgress ? precision_limited(lm_, st) : st;
 }
 
-template <typename Scalar, int N>
-Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
+template <typename Scalar>
+Status GyroSolver<Scalar>::finish(GyroCalibration<Scalar>& out) const {
   out = GyroCalibration<Scalar>{};
   out.status = status_;
   out.moves = problem_.data.move_count;
   out.iterations = lm_.iterations();
-  out.bias_refined = N == kGyroParams;
+  out.bias_refined = problem_.refine_bias;
   if (!succeeded(status_)) return out.status;
   const auto& ne = lm_.normal_equations();
   Vector sd;
@@ -155,45 +156,41 @@ Status GyroSolver<Scalar, N>::finish(GyroCalibration<Scalar>& out) const {
   const Vector& p = lm_.parameters();
   // Unobservable: a misalignment or a relative scale, or the bias in rad/s, too uncertain.
   const Scalar limit = settings_.max_normalised_sigma;
-  for (int k = 0; k < N; ++k)
+  for (int k = 0; k < problem_.size(); ++k)
     if (!(gyro_normalised_sigma<Scalar>(p, sd, k) <= limit))
       return out.status = Status::kUnobservable;
   out.params.template head<kGyroMatrixParams>() = p.template head<kGyroMatrixParams>();
-  out.sigma.template head<N>() = sd;
-  Vector3<Scalar> bias = b0_ + problem_.data.bias_shift;
-  if constexpr (N == kGyroParams) bias += p.template tail<3>();
-  out.params.template tail<3>() = bias;
+  out.sigma = sd;  // the bias's entries 0 when it is held
+  // p's bias entries are 0 when it is held.
+  out.params.template tail<3>() = b0_ + problem_.data.bias_shift + p.template tail<3>();
   const Scalar moves = static_cast<Scalar>(problem_.data.move_count);
   out.residual_rms = std::sqrt(ne.weighted_sse() / moves);
   return out.status;
 }
 
 template <typename Scalar>
-template <int N>
-void GyroInputUncertainty<Scalar>::start(const GyroSolver<Scalar, N>& solver,
+void GyroInputUncertainty<Scalar>::start(const GyroSolver<Scalar>& solver,
                                          const AccelCovariance& cov_a) {
-  full_.data = solver.problem().data;
+  full_ = solver.problem();
+  full_.refine_bias = true;  // the bias columns: J_b for hb
   int k = 0;
   for (int c = 0; c < kAccelParams; ++c)
     for (int r = c; r < kAccelParams; ++r) cov_a_[k++] = cov_a(r, c);
-  s_ = typename GyroProblem<Scalar, kGyroParams>::Sensitivity{};
+  s_ = typename GyroProblem<Scalar>::Sensitivity{};
 }
 
 template <typename Scalar>
-template <int N>
-Status GyroInputUncertainty<Scalar>::step(const GyroSolver<Scalar, N>& solver,
+Status GyroInputUncertainty<Scalar>::step(const GyroSolver<Scalar>& solver,
                                           const AccelVector<Scalar>& pa, PoseSpan<Scalar> poses,
                                           int max_segments) {
-  Eigen::Matrix<Scalar, kGyroParams, 1> p = Eigen::Matrix<Scalar, kGyroParams, 1>::Zero();
-  p.template head<N>() = solver.parameters();  // db = 0 when the bias is held
-  return full_.sensitivity_slice(p, pa, poses, s_, max_segments);
+  // db = 0 when the bias is held (the parameters' bias entries are 0 then).
+  return full_.sensitivity_slice(solver.parameters(), pa, poses, s_, max_segments);
 }
 
 // One column of H^-1 at a time, in plain loops: a 12 x 12 Eigen product would take the general
 // path, which links malloc.
 template <typename Scalar>
-template <int N>
-Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar, N>& solver,
+Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar>& solver,
                                             GyroCalibration<Scalar>& out) const {
   if (!succeeded(out.status)) return out.status;
   const Vector3<Scalar> sb = out.sigma.template tail<3>();
@@ -201,15 +198,17 @@ Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar, N>& solver,
   int i = 0;
   for (int c = 0; c < kAccelParams; ++c)
     for (int r = c; r < kAccelParams; ++r) cov_a(r, c) = cov_a(c, r) = cov_a_[i++];
-  Eigen::Matrix<Scalar, N, 1> extra = Eigen::Matrix<Scalar, N, 1>::Zero();
+  const int n = solver.problem().size();
+  const bool held = !solver.problem().refine_bias;
+  Eigen::Matrix<Scalar, kGyroParams, 1> extra = Eigen::Matrix<Scalar, kGyroParams, 1>::Zero();
   // Column k of H^-1 is its row k: x_k = (H^-1 A)_k, extra_k = x_k Cov x_k^T.
   const Status s = solver.normal_equations().inverse_columns(
-      Scalar(1), [&](int k, const Eigen::Matrix<Scalar, N, 1>& column) {
+      Scalar(1), [&](int k, const Eigen::Matrix<Scalar, kGyroParams, 1>& column) {
         Scalar xa[kAccelParams] = {};
         Scalar xb[3] = {};
-        for (int j = 0; j < N; ++j) {
+        for (int j = 0; j < n; ++j) {
           for (int q = 0; q < kAccelParams; ++q) xa[q] += column(j) * s_.a(j, q);
-          if constexpr (N == kGyroMatrixParams)
+          if (held)
             for (int q = 0; q < 3; ++q) xb[q] += column(j) * s_.hb(j, q);
         }
         Scalar e = Scalar(0);
@@ -219,49 +218,22 @@ Status GyroInputUncertainty<Scalar>::finish(const GyroSolver<Scalar, N>& solver,
         extra(k) = e;
       });
   if (s != Status::kOk) return s;
-  for (int k = 0; k < N; ++k) {
+  for (int k = 0; k < n; ++k) {
     if (!(extra(k) >= Scalar(0)) || !std::isfinite(extra(k))) return Status::kIllConditioned;
     out.sigma(k) = std::sqrt(out.sigma(k) * out.sigma(k) + extra(k));
   }
-  for (int k = 0; k < N; ++k)
+  for (int k = 0; k < n; ++k)
     if (!(gyro_normalised_sigma<Scalar>(out.params, out.sigma, k) <=
           solver.settings().max_normalised_sigma))
       return Status::kUnobservable;
   return Status::kOk;
 }
 
-template class GyroSolver<float, kGyroMatrixParams>;
-template class GyroSolver<float, kGyroParams>;
-template void GyroInputUncertainty<float>::start<kGyroMatrixParams>(
-    const GyroSolver<float, kGyroMatrixParams>&,
-    const GyroInputUncertainty<float>::AccelCovariance&);
-template Status GyroInputUncertainty<float>::step<kGyroMatrixParams>(
-    const GyroSolver<float, kGyroMatrixParams>&, const AccelVector<float>&, PoseSpan<float>, int);
-template Status GyroInputUncertainty<float>::finish<kGyroMatrixParams>(
-    const GyroSolver<float, kGyroMatrixParams>&, GyroCalibration<float>&) const;
-template void GyroInputUncertainty<float>::start<kGyroParams>(
-    const GyroSolver<float, kGyroParams>&, const GyroInputUncertainty<float>::AccelCovariance&);
-template Status GyroInputUncertainty<float>::step<kGyroParams>(
-    const GyroSolver<float, kGyroParams>&, const AccelVector<float>&, PoseSpan<float>, int);
-template Status GyroInputUncertainty<float>::finish<kGyroParams>(
-    const GyroSolver<float, kGyroParams>&, GyroCalibration<float>&) const;
+template class GyroSolver<float>;
+template class GyroInputUncertainty<float>;
 #ifndef IMUCAL_FLOAT_ONLY  // the host's reference type; a float-only build leaves it out
-template class GyroSolver<double, kGyroMatrixParams>;
-template class GyroSolver<double, kGyroParams>;
-template void GyroInputUncertainty<double>::start<kGyroMatrixParams>(
-    const GyroSolver<double, kGyroMatrixParams>&,
-    const GyroInputUncertainty<double>::AccelCovariance&);
-template Status GyroInputUncertainty<double>::step<kGyroMatrixParams>(
-    const GyroSolver<double, kGyroMatrixParams>&, const AccelVector<double>&, PoseSpan<double>,
-    int);
-template Status GyroInputUncertainty<double>::finish<kGyroMatrixParams>(
-    const GyroSolver<double, kGyroMatrixParams>&, GyroCalibration<double>&) const;
-template void GyroInputUncertainty<double>::start<kGyroParams>(
-    const GyroSolver<double, kGyroParams>&, const GyroInputUncertainty<double>::AccelCovariance&);
-template Status GyroInputUncertainty<double>::step<kGyroParams>(
-    const GyroSolver<double, kGyroParams>&, const AccelVector<double>&, PoseSpan<double>, int);
-template Status GyroInputUncertainty<double>::finish<kGyroParams>(
-    const GyroSolver<double, kGyroParams>&, GyroCalibration<double>&) const;
+template class GyroSolver<double>;
+template class GyroInputUncertainty<double>;
 #endif
 
 }  // namespace imucal

@@ -57,7 +57,7 @@ bool sse_increment(const NormalEquations<Scalar, N>& ne, const Eigen::Matrix<Sca
   for (int c = 0; c < N; ++c)
     for (int r = c; r < N; ++r) a(r, c) = ne.h(r, c) * scale(r) * scale(c);  // lower triangle
   Vector d;
-  if (detail::ldlt_factor(a.data(), N, d.data(), min_pivot_ratio<Scalar, N>()) != Status::kOk)
+  if (detail::ldlt_factor(a.data(), N, d.data(), min_pivot_ratio<Scalar>(N)) != Status::kOk)
     return false;
   Vector hv = scale.cwiseProduct(ne.gradient());
   detail::ldlt_solve(a.data(), d.data(), N, hv.data());  // H^-1 v = -theta (scaled)

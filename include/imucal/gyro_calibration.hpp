@@ -53,12 +53,14 @@ struct GyroData {
   Vector3<Scalar> bias_shift = Vector3<Scalar>::Zero();
 };
 
-// The residual problem over all moves, for N = 9 (bias fixed at b0) or N = 12 (bias refined).
-// Evaluation can be sliced: a cursor carries the partial rotation of the move in progress.
-template <typename Scalar, int N>
+// The residual problem over all moves, with the bias held at b0 + bias_shift (9 parameters: the
+// entries of the vectors from kGyroBiasX on are 0) or refined (12). One code for both: the
+// accumulator is sized at run time (size()). Evaluation can be sliced: a cursor carries the
+// partial rotation of the move in progress.
+template <typename Scalar>
 class GyroProblem {
  public:
-  static_assert(N == kGyroMatrixParams || N == kGyroParams, "9 or 12 gyro parameters");
+  static constexpr int N = kGyroParams;
   using Vector = Eigen::Matrix<Scalar, N, 1>;
   using Accumulator = NormalEquations<Scalar, N>;
 
@@ -74,6 +76,10 @@ class GyroProblem {
   };
 
   GyroData<Scalar> data{};
+  bool refine_bias = false;  // the bias columns are computed (and, in a solve, fitted)
+
+  // The parameters fitted: 9, or 12 with the bias.
+  int size() const { return refine_bias ? kGyroParams : kGyroMatrixParams; }
 
   // Folds the rows of at most max_segments segments (whole moves at the end of each) into ne
   // (a NormalEquations, or anything with the same add(row, residual)). kRunning while moves
@@ -113,10 +119,11 @@ class GyroProblem {
   // parameters p_a move the gravity directions, dr/dp_a = e^T (R^T D_a - D_b) for the move from
   // pose a to pose b, e the row's direction and D = d(up)/dp_a (3 x 9) at the pose's raw mean
   // (accel_direction_jacobian(); pa: the accelerometer's parameters, poses: its poses); and
-  // hb = J_M^T J_b, the block of the information matrix that couples M to the bias.
+  // hb = J_M^T J_b, the block of the information matrix that couples M to the bias. Needs the
+  // bias columns (refine_bias), whether the solve fitted the bias or not.
   Status sensitivity_slice(const Vector& p, const AccelVector<Scalar>& pa, PoseSpan<Scalar> poses,
                            Sensitivity& s, int max_segments) const {
-    static_assert(N == kGyroParams, "the pass needs the bias columns");
+    if (!refine_bias) return Status::kInvalidArgument;
     return walk<true>(p, s.c, max_segments, &s.rt, [&](const GyroMove& mv) {
       if (mv.from_pose >= poses.size || mv.to_pose >= poses.size) return Status::kInvalidArgument;
       const Eigen::Matrix<Scalar, 3, kAccelParams> dr =
@@ -151,8 +158,8 @@ class GyroProblem {
     if (!all_finite(p)) return Status::kNonFiniteInput;
     const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
     const Matrix3<Scalar> cof = GyroSegment<Scalar>::cofactor(m);
-    Vector3<Scalar> db = data.bias_shift;
-    if constexpr (N == kGyroParams) db += p.template tail<3>();
+    // The bias entries of p are 0 when it is held.
+    const Vector3<Scalar> db = data.bias_shift + p.template tail<3>();
     int budget = max_segments;
     while (c.move < data.move_count) {
       const GyroMove& mv = data.moves[c.move];
@@ -165,7 +172,8 @@ class GyroProblem {
       }
       for (; c.segment < mv.segments; ++c.segment) {
         if (budget-- <= 0) return Status::kRunning;
-        advance<kJacobian>(data.segments[mv.first_segment + c.segment], m, cof, db, c, rotation);
+        advance<kJacobian>(data.segments[mv.first_segment + c.segment], m, cof, db, refine_bias, c,
+                           rotation);
       }
       const Status s = end(mv);
       if (s != Status::kOk) return s;
@@ -177,11 +185,12 @@ class GyroProblem {
 
   // v <- E^T v for the segment's rotation E = exp([Omega]x), and (with kJacobian)
   // dv <- E^T (dv + [v]x J_l(Omega) dOmega): d(exp(-[Omega]x) v)/dOmega = E^T [v]x J_l(Omega).
-  // With rotation, also rotation <- E^T rotation (R^T of the move so far).
+  // With rotation, also rotation <- E^T rotation (R^T of the move so far). Without bias columns,
+  // those of dv stay 0 and are not computed.
   template <bool kJacobian>
   static void advance(const GyroSegment<Scalar>& seg, const Matrix3<Scalar>& m,
-                      const Matrix3<Scalar>& cof, const Vector3<Scalar>& db, Cursor& c,
-                      Matrix3<Scalar>* rotation = nullptr) {
+                      const Matrix3<Scalar>& cof, const Vector3<Scalar>& db, bool bias_columns,
+                      Cursor& c, Matrix3<Scalar>* rotation = nullptr) {
     const Vector3<Scalar> ab = seg.alpha + seg.duration * db;
     const Vector3<Scalar> bb = seg.beta + seg.gamma.cross(db);
     const Vector3<Scalar> omega = m * ab + Scalar(0.5) * (cof * bb);
@@ -200,14 +209,18 @@ class GyroProblem {
       const Matrix3<Scalar> s1 = skew(Vector3<Scalar>(m.col(1)));
       const Matrix3<Scalar> s2 = skew(Vector3<Scalar>(m.col(2)));
       const Scalar h = Scalar(0.5);
-      Eigen::Matrix<Scalar, 3, N> d;
+      Eigen::Matrix<Scalar, 3, kGyroMatrixParams> d;
       d.template block<3, 3>(0, 0) = ab(0) * g + h * (g * (bb(1) * s2 - bb(2) * s1));
       d.template block<3, 3>(0, 3) = ab(1) * g + h * (g * (bb(2) * s0 - bb(0) * s2));
       d.template block<3, 3>(0, 6) = ab(2) * g + h * (g * (bb(0) * s1 - bb(1) * s0));
-      // dOmega/ddb = T M + 1/2 cof(M) [C]x (alpha_b = alpha + T db, beta_b = B + C x db)
-      if constexpr (N == kGyroParams)
-        d.template block<3, 3>(0, 9) = g * (seg.duration * m + h * (cof * skew(seg.gamma)));
-      c.dv = et * (c.dv + d);
+      auto dm = c.dv.template leftCols<kGyroMatrixParams>();
+      dm = et * (dm + d);
+      if (bias_columns) {
+        // dOmega/ddb = T M + 1/2 cof(M) [C]x (alpha_b = alpha + T db, beta_b = B + C x db)
+        const Matrix3<Scalar> db_col = g * (seg.duration * m + h * (cof * skew(seg.gamma)));
+        auto dbias = c.dv.template rightCols<3>();
+        dbias = et * (dbias + db_col);
+      }
     }
     c.v = et * c.v;
     if (rotation != nullptr) *rotation = et * *rotation;
@@ -233,7 +246,7 @@ class GyroProblem {
 
   // d/dq from d/dM (column-major entries, index 3 col + row) for M = T K.
   static Vector parameter_row(const Vector& p, const Vector& jm) {
-    Vector j = jm;  // the bias columns (N = 12) carry over
+    Vector j = jm;  // the bias columns carry over
     j(kGammaYz) = -p(kGyroScaleY) * jm(3);
     j(kGammaZy) = p(kGyroScaleZ) * jm(6);
     j(kGammaZx) = -p(kGyroScaleZ) * jm(7);
@@ -294,11 +307,12 @@ Scalar gyro_normalised_sigma(const P& p, const S& sd, int k) {
 constexpr int gyro_min_moves(int n) { return n / 2 + 1; }
 
 // The gyro solve in bounded steps: the scale search (when no nominal scale is given) and then
-// the LM, each step folding at most segments_per_step segments.
-template <typename Scalar, int N>
+// the LM, each step folding at most segments_per_step segments. settings.refine_bias says whether
+// the bias is fitted (12 parameters) or held (9: the vectors' bias entries are 0).
+template <typename Scalar>
 class GyroSolver {
  public:
-  using Problem = GyroProblem<Scalar, N>;
+  using Problem = GyroProblem<Scalar>;
   using Vector = typename Problem::Vector;
 
   explicit GyroSolver(const GyroSettings<Scalar>& settings = GyroSettings<Scalar>())
@@ -311,7 +325,9 @@ class GyroSolver {
   // The solution, its problem and its normal equations (after a usable finish()).
   const Problem& problem() const { return problem_; }
   const Vector& parameters() const { return lm_.parameters(); }
-  const NormalEquations<Scalar, N>& normal_equations() const { return lm_.normal_equations(); }
+  const NormalEquations<Scalar, kGyroParams>& normal_equations() const {
+    return lm_.normal_equations();
+  }
   const GyroSettings<Scalar>& settings() const { return settings_; }
   Status status() const { return status_; }
   int iterations() const { return lm_.iterations(); }
@@ -326,7 +342,7 @@ class GyroSolver {
 
   GyroSettings<Scalar> settings_;
   Problem problem_{};
-  LevenbergMarquardt<Scalar, N> lm_;
+  LevenbergMarquardt<Scalar, kGyroParams> lm_;
   typename Problem::Cursor cursor_{};
   Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();
   Stage stage_ = Stage::kLm;
@@ -355,31 +371,28 @@ class GyroInputUncertainty {
   using AccelCovariance = Eigen::Matrix<Scalar, kAccelParams, kAccelParams>;
 
   // solver: finished and usable; cov_a: the accelerometer's covariance in sensor units.
-  template <int N>
-  void start(const GyroSolver<Scalar, N>& solver, const AccelCovariance& cov_a);
+  void start(const GyroSolver<Scalar>& solver, const AccelCovariance& cov_a);
 
   // Folds at most max_segments segments: kRunning while moves remain, kOk when done. The same
   // solver as start()'s; pa and poses: the accelerometer's parameters and the poses the gyro's
   // moves join (their raw means give each gravity direction's d(up)/dp_a).
-  template <int N>
-  Status step(const GyroSolver<Scalar, N>& solver, const AccelVector<Scalar>& pa,
+  Status step(const GyroSolver<Scalar>& solver, const AccelVector<Scalar>& pa,
               PoseSpan<Scalar> poses, int max_segments);
 
-  // Widens out.sigma (the solver's own finish(); with N = 9, out.sigma's bias entries are the
-  // held bias's sigma) by what the pass found; kUnobservable if a widened sigma passes the
+  // Widens out.sigma (the solver's own finish(); with the bias held, out.sigma's bias entries are
+  // the held bias's sigma) by what the pass found; kUnobservable if a widened sigma passes the
   // solver's max_normalised_sigma.
-  template <int N>
-  Status finish(const GyroSolver<Scalar, N>& solver, GyroCalibration<Scalar>& out) const;
+  Status finish(const GyroSolver<Scalar>& solver, GyroCalibration<Scalar>& out) const;
 
  private:
-  GyroProblem<Scalar, kGyroParams> full_{};  // the twelve-parameter problem: the bias columns too
+  GyroProblem<Scalar> full_{};  // the solver's problem with the bias columns computed
   Scalar cov_a_[kAccelParams * (kAccelParams + 1) / 2] = {};  // lower triangle, by column
-  typename GyroProblem<Scalar, kGyroParams>::Sensitivity s_{};
+  typename GyroProblem<Scalar>::Sensitivity s_{};
 };
 
-extern template class GyroSolver<float, kGyroMatrixParams>;
-extern template class GyroSolver<float, kGyroParams>;
-extern template class GyroSolver<double, kGyroMatrixParams>;
-extern template class GyroSolver<double, kGyroParams>;
+extern template class GyroSolver<float>;
+extern template class GyroSolver<double>;
+extern template class GyroInputUncertainty<float>;
+extern template class GyroInputUncertainty<double>;
 
 }  // namespace imucal

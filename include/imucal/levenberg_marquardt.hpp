@@ -65,7 +65,9 @@ class LevenbergMarquardt {
   // the residuals across many calls (time slicing):
   //   begin(p0); then, while evaluation_pending(): fold every row at evaluation_point() into
   //   evaluation_accumulator() (already cleared), and report with evaluated(status).
-  Status begin(const Vector& p0) {
+  // size: the parameters fitted, the first `size` of the N (1..N): the rest of p0 stays as it is
+  // (0, for a problem whose count is known only at run time: NormalEquations::resize()).
+  Status begin(const Vector& p0, int size = N) {
     iterations_ = 0;
     lambda_ = settings_.initial_lambda;
     pending_ = false;
@@ -73,8 +75,10 @@ class LevenbergMarquardt {
     if (settings_.max_iterations < 1 || !(settings_.initial_lambda > Scalar(0)) ||
         !(settings_.max_lambda > settings_.initial_lambda))
       return status_ = Status::kInvalidArgument;
+    if (size < 1 || size > N) return status_ = Status::kInvalidArgument;
     p_ = p0;
-    current_.clear();
+    current_.resize(size);
+    trial_.resize(size);
     at_start_ = true;
     pending_ = true;
     return status_ = Status::kRunning;

@@ -2,7 +2,7 @@
 // accelerometer's Levenberg-Marquardt on the poses, then the gyro's on the moves between them
 // (the gravity directions from the calibrated accelerometer), then the pass that carries the
 // accelerometer's uncertainty into the gyro's sigma. One memory holds the accelerometer's solver
-// and then that pass (they never run together), one the gyro solver that the settings pick.
+// and then that pass (they never run together), one the gyro solver.
 // Also the verdict on the result (judge_quality). Header-only, no allocation.
 #pragma once
 
@@ -45,7 +45,7 @@ class SolveSequence {
   // The solvers for these settings (the gyro's: refine_bias picks 9 or 12 parameters).
   void configure(const AccelSettings<Scalar>& accel, const GyroSettings<Scalar>& gyro) {
     memory_.make_accel(accel);
-    gyro_.make(gyro);
+    gyro_ = GyroSolver<Scalar>(gyro);
     stage_ = Stage::kAccel;
   }
 
@@ -78,24 +78,18 @@ class SolveSequence {
       return start_gyro(in, cal);
     }
     if (stage_ == Stage::kGyro) {
-      const Status s = gyro_.visit([](auto& g) { return g.step(); });
+      const Status s = gyro_.step();
       if (s == Status::kRunning) return s;
-      if (gyro_.twelve_parameters()) {
-        gyro_.twelve().finish(cal.gyro);
-      } else {
-        gyro_.nine().finish(cal.gyro);
-        if (succeeded(cal.gyro.status))  // the bias is the rests' mean rate
-          cal.gyro.sigma.template tail<3>() = in.bias_sigma;
-      }
+      gyro_.finish(cal.gyro);
+      if (!gyro_.settings().refine_bias && succeeded(cal.gyro.status))
+        cal.gyro.sigma.template tail<3>() = in.bias_sigma;  // the bias is the rests' mean rate
       if (succeeded(cal.gyro.status) && start_input_uncertainty(in, cal)) return Status::kRunning;
     } else {  // Stage::kGyroSigma
       const AccelVector<Scalar>& pa = cal.accel.params;
       GyroInputUncertainty<Scalar>& u = memory_.input_uncertainty();
       const int slice = gyro.segments_per_step;
-      const Status s = gyro_.visit([&](auto& g) {
-        const Status st = u.step(g, pa, in.poses, slice);
-        return st == Status::kOk ? u.finish(g, cal.gyro) : st;
-      });
+      Status s = u.step(gyro_, pa, in.poses, slice);
+      if (s == Status::kOk) s = u.finish(gyro_, cal.gyro);
       if (s == Status::kRunning) return s;
       if (s != Status::kOk) fail_gyro(s, in, cal);
     }
@@ -123,7 +117,7 @@ class SolveSequence {
     data.up = up_;
     data.pose_count = in.poses.size;
     data.bias_shift = in.bias_shift;
-    const Status s = gyro_.visit([&](auto& g) { return g.start(data, in.gyro_bias0); });
+    const Status s = gyro_.start(data, in.gyro_bias0);
     if (s != Status::kRunning) fail_gyro(s, in, cal);
     return s == Status::kRunning ? s : cal.gyro.status;
   }
@@ -139,7 +133,7 @@ class SolveSequence {
       return false;
     }
     GyroInputUncertainty<Scalar>& u = memory_.make_input_uncertainty();
-    gyro_.visit([&](const auto& g) { u.start(g, cov_a); });
+    u.start(gyro_, cov_a);
     stage_ = Stage::kGyroSigma;
     return true;
   }
@@ -187,56 +181,9 @@ class SolveSequence {
     bool accel_ = true;
   };
 
-  // The gyro solver that settings.gyro.refine_bias picks. Only one is ever used per run, so they
-  // share memory; built in place, copied as the one that is there.
-  using Gyro9 = GyroSolver<Scalar, kGyroMatrixParams>;
-  using Gyro12 = GyroSolver<Scalar, kGyroParams>;
-  static_assert(std::is_trivially_destructible<Gyro9>::value &&
-                    std::is_trivially_destructible<Gyro12>::value,
-                "the gyro solvers are rebuilt in place without a destructor call");
-  class GyroSolvers {
-   public:
-    GyroSolvers() { new (&u_.nine) Gyro9(GyroSettings<Scalar>{}); }
-    GyroSolvers(const GyroSolvers& o) { copy_from(o); }
-    GyroSolvers& operator=(const GyroSolvers& o) {
-      if (this != &o) copy_from(o);
-      return *this;
-    }
-    void make(const GyroSettings<Scalar>& s) {
-      twelve_ = s.refine_bias;
-      if (twelve_)
-        new (&u_.twelve) Gyro12(s);
-      else
-        new (&u_.nine) Gyro9(s);
-    }
-    bool twelve_parameters() const { return twelve_; }
-    Gyro9& nine() { return u_.nine; }
-    Gyro12& twelve() { return u_.twelve; }
-    // f(the solver that is there).
-    template <class F>
-    decltype(auto) visit(const F& f) {
-      return twelve_ ? f(u_.twelve) : f(u_.nine);
-    }
-
-   private:
-    void copy_from(const GyroSolvers& o) {
-      twelve_ = o.twelve_;
-      if (twelve_)
-        new (&u_.twelve) Gyro12(o.u_.twelve);
-      else
-        new (&u_.nine) Gyro9(o.u_.nine);
-    }
-    union U {
-      U() {}
-      Gyro9 nine;
-      Gyro12 twelve;
-    } u_;
-    bool twelve_ = false;
-  };
-
   Vector3<Scalar> up_[static_cast<std::size_t>(MaxPoses)] = {};
   Memory memory_;
-  GyroSolvers gyro_;
+  GyroSolver<Scalar> gyro_;
   Stage stage_ = Stage::kAccel;
 };
 
