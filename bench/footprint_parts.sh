@@ -5,6 +5,8 @@
 # checked for heap symbols (cmake/CheckNoHeap.cmake).
 #   bench/footprint_parts.sh                     m4f at -Os and -O2
 #   bench/footprint_parts.sh m4f:-Os,-O2 m33:-Os  chosen targets and levels
+#   FOOTPRINT_FLAGS=-DEIGEN_UNROLLING_LIMIT=0 bench/footprint_parts.sh m4f:-Os
+#                                                 with compiler flags a firmware adds (;-separated)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 configs=("$@")
@@ -22,12 +24,13 @@ for config in "${configs[@]}"; do
   target=${config%%:*}
   IFS=, read -ra levels <<<"${config#*:}"
   for level in "${levels[@]}"; do
-    dir="build/footprint/$target$level"
+    flags=${FOOTPRINT_FLAGS:-}
+    dir="build/footprint/$target$level${flags:+-$(tr -c 'A-Za-z0-9_=\n-' _ <<<"$flags")}"
     cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE= \
       -DCMAKE_TOOLCHAIN_FILE="$PWD/toolchains/${toolchain[$target]}.cmake" \
       -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF \
       -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
-      -DIMUCAL_FOOTPRINT_OPT="$level" -DIMUCAL_FOOTPRINT_LTO=OFF >/dev/null
+      -DIMUCAL_FOOTPRINT_OPT="$level${flags:+;$flags}" -DIMUCAL_FOOTPRINT_LTO=OFF >/dev/null
     for parts in 1 2 3 4 5; do
       program=imucal_footprint_parts$parts
       [ "$parts" = 5 ] && program=imucal_footprint
