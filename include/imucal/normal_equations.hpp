@@ -35,7 +35,8 @@ constexpr Scalar min_pivot_ratio(int n) {
 namespace detail {
 
 // The accumulator's arithmetic on n unknowns, written once for every size (NormalEquations holds
-// the storage): h is the packed lower triangle, column by column, of an n x n matrix.
+// the storage): h is the packed lower triangle, column by column, of an n x n matrix. Kept out of
+// line, so that every size and every caller shares one copy.
 inline int packed_index(int n, int r, int c) { return c * n - c * (c - 1) / 2 + (r - c); }
 
 template <typename Scalar>
@@ -68,8 +69,8 @@ Status ne_add(Scalar* h, Scalar* v, Scalar& f, Scalar& trace, int n, const Scala
 // L in its strict lower triangle) and the pivots d, with the scale 1 / sqrt(H_ii); checked for
 // rank and conditioning.
 template <typename Scalar>
-Status ne_factor(const Scalar* h, int rows, int n, Scalar lambda, Scalar* scale, Scalar* l,
-                 Scalar* d) {
+__attribute__((noinline)) Status ne_factor(const Scalar* h, int rows, int n, Scalar lambda,
+                                           Scalar* scale, Scalar* l, Scalar* d) {
   if (!std::isfinite(lambda) || lambda < Scalar(0)) return Status::kInvalidArgument;
   if (rows == 0) return Status::kRankDeficient;
   for (int i = 0; i < n; ++i) {
@@ -88,7 +89,8 @@ Status ne_factor(const Scalar* h, int rows, int n, Scalar lambda, Scalar* scale,
 
 // Gauss-Newton model of the decrease of f for a step delta: -(2 delta.v + delta^T H delta).
 template <typename Scalar>
-Scalar ne_predicted_decrease(const Scalar* h, const Scalar* v, int n, const Scalar* delta) {
+__attribute__((noinline)) Scalar ne_predicted_decrease(const Scalar* h, const Scalar* v, int n,
+                                                       const Scalar* delta) {
   Scalar quad = Scalar(0), dv = Scalar(0);
   int k = 0;
   for (int c = 0; c < n; ++c) {
@@ -101,7 +103,8 @@ Scalar ne_predicted_decrease(const Scalar* h, const Scalar* v, int n, const Scal
 
 // max_i |v_i| / sqrt(H_ii f) (NormalEquations::gradient_cosine()).
 template <typename Scalar>
-Scalar ne_gradient_cosine(const Scalar* h, const Scalar* v, Scalar f, int rows, int n) {
+__attribute__((noinline)) Scalar ne_gradient_cosine(const Scalar* h, const Scalar* v, Scalar f,
+                                                    int rows, int n) {
   if (rows == 0 || !std::isfinite(f)) return Scalar(1);
   if (f == Scalar(0)) return Scalar(0);  // an exact fit
   Scalar worst = Scalar(0);
