@@ -39,13 +39,14 @@ template <typename Scalar, int MaxPoses>
 class SolveSequence {
  public:
   static_assert(std::is_trivially_destructible<AccelSolver<Scalar>>::value &&
-                    std::is_trivially_destructible<GyroInputUncertainty<Scalar>>::value,
+                    std::is_trivially_destructible<GyroInputUncertainty<Scalar>>::value &&
+                    std::is_trivially_destructible<GyroSolver<Scalar>>::value,
                 "the solve memory is rebuilt in place without a destructor call");
 
   // The solvers for these settings (the gyro's: refine_bias picks 9 or 12 parameters).
   void configure(const AccelSettings<Scalar>& accel, const GyroSettings<Scalar>& gyro) {
     memory_.make_accel(accel);
-    gyro_ = GyroSolver<Scalar>(gyro);
+    new (&gyro_) GyroSolver<Scalar>(gyro);  // in place: no solver-sized temporary on the stack
     stage_ = Stage::kAccel;
   }
 
