@@ -35,8 +35,9 @@ constexpr Scalar min_pivot_ratio(int n) {
 namespace detail {
 
 // The accumulator's arithmetic on n unknowns, written once for every size (NormalEquations holds
-// the storage): h is the packed lower triangle, column by column, of an n x n matrix. Kept out of
-// line, so that every size and every caller shares one copy.
+// the storage): h is the packed lower triangle, column by column, of an n x n matrix. The factor,
+// the predicted decrease and the gradient cosine are kept out of line (one copy for every size and
+// caller); the row fold, called once per residual in every evaluation, is inlined.
 inline int packed_index(int n, int r, int c) { return c * n - c * (c - 1) / 2 + (r - c); }
 
 template <typename Scalar>

@@ -82,7 +82,7 @@ class SolveSequence {
       const Status s = gyro_.step();
       if (s == Status::kRunning) return s;
       gyro_.finish(cal.gyro);
-      if (!gyro_.settings().refine_bias && succeeded(cal.gyro.status))
+      if (!cal.gyro.bias_refined && succeeded(cal.gyro.status))
         cal.gyro.sigma.template tail<3>() = in.bias_sigma;  // the bias is the rests' mean rate
       if (succeeded(cal.gyro.status) && start_input_uncertainty(in, cal)) return Status::kRunning;
     } else {  // Stage::kGyroSigma
