@@ -22,8 +22,10 @@ struct Rosenbrock {
 };
 
 // Exponential decay y = A exp(-k t) + noise-free data: a small-residual fit with a unique minimum.
-struct ExpDecay {
-  Status accumulate(const Eigen::Vector2d& p, NormalEquations<double, 2>& ne) const {
+// Its two unknowns in an LM of capacity N (entries from the third on unused).
+template <int N>
+struct ExpDecayIn {
+  Status accumulate(const Eigen::Matrix<double, N, 1>& p, NormalEquations<double, N>& ne) const {
     for (int i = 0; i < 20; ++i) {
       const double t = 0.25 * i;
       const double y = 3.0 * std::exp(-0.7 * t) + 0.01 * std::sin(5.0 * i);
@@ -34,6 +36,7 @@ struct ExpDecay {
     return Status::kOk;
   }
 };
+using ExpDecay = ExpDecayIn<2>;
 
 TEST(LevenbergMarquardt, SolvesRosenbrockInDoubleAndFloat) {
   LevenbergMarquardt<double, 2> lm;
@@ -161,6 +164,44 @@ TEST(LevenbergMarquardt, ARankDeficientProblemStopsWithThatReason) {
   LevenbergMarquardt<double, 2> lm;
   EXPECT_EQ(lm.run(Unobservable{}, Eigen::Vector2d(0.0, 0.0)), Status::kRankDeficient);
   EXPECT_EQ(lm.iterations(), 1);
+}
+
+// The same two-parameter fit in an LM of capacity 3 run at size 2 (as the accelerometer's 9 run in
+// the gyro's 12): its own two-entry rows, the third parameter untouched, the same answer bit for
+// bit.
+TEST(LevenbergMarquardt, AProblemSmallerThanTheCapacitySolvesAsItsOwnSize) {
+  LevenbergMarquardt<double, 2> own;
+  const Status s2 = own.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1));
+  ASSERT_TRUE(succeeded(s2)) << to_string(s2);
+  LevenbergMarquardt<double, 3> wide;
+  Status s3 = wide.start(ExpDecayIn<3>{}, Eigen::Vector3d(1.0, 0.1, 0.0), 2);
+  while (s3 == Status::kRunning) s3 = wide.step(ExpDecayIn<3>{});
+  EXPECT_EQ(s3, s2);
+  EXPECT_EQ(wide.iterations(), own.iterations());
+  EXPECT_EQ(wide.parameters().head<2>(), own.parameters());
+  EXPECT_EQ(wide.parameters()(2), 0.0);
+  EXPECT_EQ(wide.normal_equations().weighted_sse(), own.normal_equations().weighted_sse());
+}
+
+// reset(settings) is a new solver in place: not started, and its next run that of a new one.
+TEST(LevenbergMarquardt, ResetIsANewSolverWithTheNewSettings) {
+  LmSettings<double> few;
+  few.max_iterations = 2;
+  LevenbergMarquardt<double, 2> fresh(few);
+  const Status expected = fresh.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1));
+  ASSERT_EQ(expected, Status::kMaxIterations);
+
+  LevenbergMarquardt<double, 2> reused;
+  ASSERT_TRUE(succeeded(reused.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1))));
+  ASSERT_GT(reused.iterations(), 2);
+  reused.reset(few);
+  EXPECT_EQ(reused.status(), Status::kNotStarted);
+  EXPECT_EQ(reused.iterations(), 0);
+  EXPECT_EQ(reused.parameters(), Eigen::Vector2d::Zero());
+  EXPECT_EQ(reused.step(ExpDecay{}), Status::kNotStarted);
+  EXPECT_EQ(reused.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1)), expected);
+  EXPECT_EQ(reused.iterations(), fresh.iterations());
+  EXPECT_EQ(reused.parameters(), fresh.parameters());
 }
 
 }  // namespace

@@ -239,6 +239,30 @@ TEST(NormalEquations, RunTimeSizeIsTheSmallerProblem) {
   EXPECT_EQ(wide.size(), kN);
 }
 
+// A problem's own rows (kN entries) go into a wider accumulator sized to them, bit for bit as
+// the same rows padded; a row shorter than the accumulator's size is refused and changes nothing.
+TEST(NormalEquations, ShorterRowsFoldAsPaddedOnes) {
+  const Batch b = random_batch(8);
+  NormalEquations<double, 7> padded, shorter;
+  padded.resize(kN);
+  shorter.resize(kN);
+  for (int r = 0; r < kRows; ++r) {
+    const Vec j = b.j.row(r).transpose();
+    Eigen::Matrix<double, 7, 1> jp = Eigen::Matrix<double, 7, 1>::Zero();
+    jp.head<kN>() = j;
+    ASSERT_EQ(padded.add(jp, b.e(r), b.w(r)), Status::kOk);
+    ASSERT_EQ(shorter.add(j, b.e(r), b.w(r)), Status::kOk);
+  }
+  EXPECT_EQ(shorter.rows(), padded.rows());
+  EXPECT_EQ(shorter.weighted_sse(), padded.weighted_sse());
+  EXPECT_EQ(shorter.information(), padded.information());
+  EXPECT_EQ(shorter.gradient(), padded.gradient());
+  shorter.resize(5);
+  ASSERT_EQ(shorter.add(Vec(Vec::Ones()), 1.0), Status::kInvalidArgument);  // 4 entries for 5
+  EXPECT_EQ(shorter.rows(), 0);
+  EXPECT_EQ(shorter.weighted_sse(), 0.0);
+}
+
 // A random symmetric positive-definite n x n matrix (column-major in m) with condition number
 // about `cond`: Q diag(...) Q^T, eigenvalues spaced geometrically from 1 to 1 / cond.
 template <int N>

@@ -127,17 +127,19 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   Scalar mean_n = Scalar(0);
   for (int i = 0; i < poses.size; ++i) mean_n += Scalar(poses[i].samples);
   mean_n /= Scalar(poses.size);
-  NormalEquations<Scalar, kAccelParams> ne;
+  NormalEquations<Scalar, kSolverCapacity> ne;  // the solvers' capacity: one copy of its code
+  ne.resize(kAccelParams);
   const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
     const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
     const Status s = ne.add(detail::quadric_row(x), Scalar(-1), Scalar(poses[i].samples) / mean_n);
     if (s != Status::kOk) return s;
   }
-  AccelVector<Scalar> theta;
+  typename NormalEquations<Scalar, kSolverCapacity>::Vector theta;
   Status s = ne.solve_damped(Scalar(0), theta);
   if (s != Status::kOk) return s;
-  s = params_from_quadric(theta, p_normalised);  // exact on noise-free poses
+  // Exact on noise-free poses.
+  s = params_from_quadric(AccelVector<Scalar>(theta.template head<kAccelParams>()), p_normalised);
   if (s != Status::kNotAnEllipsoid) return s;
 
   // A term no pose excites (x0 x1 when no pose has gravity between x and y) is set by the noise
@@ -149,12 +151,14 @@ Status fit_ellipsoid(PoseSpan<Scalar> poses, const Vector3<Scalar>& centre, Scal
   for (int k = 0; k < kAccelParams; ++k) trace += ne.h(k, k);
   const Scalar pull = Scalar(1e-4) * trace;
   for (int k = 0; k < kAccelParams; ++k) {
-    s = ne.add(AccelVector<Scalar>::Unit(k), k < 3 ? Scalar(-1) : Scalar(0), pull);
+    s = ne.add(AccelVector<Scalar>(AccelVector<Scalar>::Unit(k)), k < 3 ? Scalar(-1) : Scalar(0),
+               pull);
     if (s != Status::kOk) return s;
   }
   s = ne.solve_damped(Scalar(0), theta);
   if (s != Status::kOk) return s;
-  return params_from_quadric(theta, p_normalised);
+  return params_from_quadric(AccelVector<Scalar>(theta.template head<kAccelParams>()),
+                             p_normalised);
 }
 
 template <typename Scalar>
@@ -172,8 +176,9 @@ Scalar AccelSolver<Scalar>::Problem::weight(int i) const {
 }
 
 template <typename Scalar>
-Status AccelSolver<Scalar>::Problem::accumulate(const AccelVector<Scalar>& p,
-                                                NormalEquations<Scalar, kAccelParams>& ne) const {
+Status AccelSolver<Scalar>::Problem::accumulate(const LmVector& lm_p,
+                                                typename Lm::Accumulator& ne) const {
+  const AccelVector<Scalar> p = lm_p.template head<kAccelParams>();
   const Scalar inv_scale = Scalar(1) / scale;
   for (int i = 0; i < poses.size; ++i) {
     const Vector3<Scalar> x = normalised(poses[i], centre, inv_scale);
@@ -245,6 +250,15 @@ LmSettings<Scalar> AccelSolver<Scalar>::lm_settings() const {
   return s;
 }
 
+// A new LM run from p0, with the settings for the present weights (lm_settings()).
+template <typename Scalar>
+Status AccelSolver<Scalar>::start_lm(const AccelVector<Scalar>& p0) {
+  lm_.reset(lm_settings());
+  LmVector p = LmVector::Zero();
+  p.template head<kAccelParams>() = p0;
+  return lm_.start(problem_, p, kAccelParams);
+}
+
 template <typename Scalar>
 Status AccelSolver<Scalar>::restart(const AccelVector<Scalar>& from) {
   iterations_before_ += lm_.iterations();
@@ -252,8 +266,7 @@ Status AccelSolver<Scalar>::restart(const AccelVector<Scalar>& from) {
   for (int k = 0; k < kAccelParams; ++k)
     if (problem_.held & (1u << k)) p(k) = Scalar(0);
   problem_.p_weights = p;
-  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(lm_settings());
-  const Status s = lm_.start(problem_, p);
+  const Status s = start_lm(p);
   if (s != Status::kRunning && !succeeded(s)) return status_ = s;
   return status_ = (succeeded(s) ? after_convergence(s) : s);
 }
@@ -267,7 +280,7 @@ template <typename Scalar>
 bool AccelSolver<Scalar>::hold_or_refuse(const AccelVector<Scalar>& p) {
   const Scalar limit = settings_.max_normalised_sigma;
   const Scalar variance = sigma_factor(p);
-  AccelVector<Scalar> sd;
+  LmVector sd;
   const Status s = lm_.normal_equations().standard_deviations(sd, variance);
   if (s != Status::kOk) {
     status_ = s;
@@ -301,7 +314,7 @@ bool AccelSolver<Scalar>::hold_or_refuse(const AccelVector<Scalar>& p) {
 // with the new weights until the floor settles; then done.
 template <typename Scalar>
 Status AccelSolver<Scalar>::after_convergence(Status lm_status) {
-  const AccelVector<Scalar> p = lm_.parameters();
+  const AccelVector<Scalar> p = parameters();
   if (hold_or_refuse(p)) return status_;
   // The weights were evaluated at the closed-form start, which can be far off where the poses
   // barely determine a parameter: once more with them at the solution.
@@ -354,7 +367,7 @@ Status AccelSolver<Scalar>::after_convergence(Status lm_status) {
 
 template <typename Scalar>
 Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
-  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(settings_.lm);
+  lm_.reset(settings_.lm);
   problem_ = Problem{};
   problem_.poses = poses;
   floor_rounds_ = 0;
@@ -369,8 +382,7 @@ Status AccelSolver<Scalar>::start(PoseSpan<Scalar> poses) {
   s = fit_ellipsoid(poses, problem_.centre, problem_.scale, p0);
   if (s != Status::kOk) return status_ = s;
   problem_.p_weights = p0;
-  lm_ = LevenbergMarquardt<Scalar, kAccelParams>(lm_settings());
-  s = lm_.start(problem_, p0);
+  s = start_lm(p0);
   if (s != Status::kRunning && !succeeded(s)) return status_ = s;
   if (succeeded(s)) return status_ = after_convergence(s);
   // Observability before iterating: the closed-form start is already close to the optimum, so
@@ -386,7 +398,7 @@ Status AccelSolver<Scalar>::step() {
   // At 1 kHz a pose mean is so precise that in float the cost's rounding hides the last decrease
   // (the LM then ends at maximum damping a few hundredths of a sigma from the minimum).
   Status s = lm_.step(problem_);
-  if (s == Status::kNoProgress) s = precision_limited(lm_, s, sigma_factor(lm_.parameters()));
+  if (s == Status::kNoProgress) s = precision_limited(lm_, s, sigma_factor(parameters()));
   if (succeeded(s)) return after_convergence(s);
   return status_ = s;
 }
@@ -400,11 +412,12 @@ Status AccelSolver<Scalar>::finish(AccelCalibration<Scalar>& out) const {
   out.status = status_;
   if (!succeeded(status_)) return status_;
 
-  const AccelVector<Scalar>& pn = lm_.parameters();
+  const AccelVector<Scalar> pn = parameters();
   const Scalar chi = chi2(pn);
   const int m = dof();
-  AccelVector<Scalar> sdn;
-  Status obs = lm_.normal_equations().standard_deviations(sdn, sigma_factor(pn));
+  LmVector sd_lm = LmVector::Zero();
+  Status obs = lm_.normal_equations().standard_deviations(sd_lm, sigma_factor(pn));
+  const AccelVector<Scalar> sdn = sd_lm.template head<kAccelParams>();
   if (obs == Status::kOk && !(sdn.maxCoeff() <= settings_.max_normalised_sigma))
     obs = Status::kUnobservable;
   if (obs != Status::kOk) return out.status = obs;
@@ -466,12 +479,11 @@ template <typename Scalar>
 Status AccelSolver<Scalar>::covariance(
     Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const {
   if (!succeeded(status_)) return status_;
-  const AccelVector<Scalar>& pn = lm_.parameters();
-  Eigen::Matrix<Scalar, kAccelParams, kAccelParams> c;
-  const Status s = lm_.normal_equations().covariance(c, sigma_factor(pn));
+  typename Lm::Accumulator::Matrix c;
+  const Status s = lm_.normal_equations().covariance(c, sigma_factor(parameters()));
   if (s != Status::kOk) return s;
   const AccelVector<Scalar> d = sensor_units();
-  cov = d.asDiagonal() * c * d.asDiagonal();
+  cov = d.asDiagonal() * c.template topLeftCorner<kAccelParams, kAccelParams>() * d.asDiagonal();
   return all_finite(cov) ? Status::kOk : Status::kIllConditioned;
 }
 

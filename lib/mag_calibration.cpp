@@ -26,6 +26,23 @@ using MagVector = Eigen::Matrix<Scalar, kMagParams, 1>;
 template <typename Scalar>
 using AlignVector = Eigen::Matrix<Scalar, kMagAlignParams, 1>;
 
+// Both fits run in the capacity the accelerometer's and gyro's solvers share (kSolverCapacity),
+// at run-time size 9 and 4: one copy of the LM and its normal equations in a firmware.
+template <typename Scalar>
+using Lm = LevenbergMarquardt<Scalar, kSolverCapacity>;
+template <typename Scalar>
+using Ne = NormalEquations<Scalar, kSolverCapacity>;
+template <typename Scalar>
+using LmVector = Eigen::Matrix<Scalar, kSolverCapacity, 1>;
+
+// The first M entries of x, the rest 0.
+template <typename Scalar, int M>
+LmVector<Scalar> padded(const Eigen::Matrix<Scalar, M, 1>& x) {
+  LmVector<Scalar> p = LmVector<Scalar>::Zero();
+  p.template head<M>() = x;
+  return p;
+}
+
 template <typename Scalar>
 Matrix3<Scalar> sym_matrix(const MagVector<Scalar>& p) {
   Matrix3<Scalar> w;
@@ -44,8 +61,8 @@ struct MagProblem {
   Vector3<Scalar> centre = Vector3<Scalar>::Zero();
   Scalar inv_scale = Scalar(1);
 
-  Status accumulate(const MagVector<Scalar>& p, NormalEquations<Scalar, kMagParams>& ne) const {
-    const Matrix3<Scalar> w = sym_matrix(p);
+  Status accumulate(const LmVector<Scalar>& p, Ne<Scalar>& ne) const {
+    const Matrix3<Scalar> w = sym_matrix(MagVector<Scalar>(p.template head<kMagParams>()));
     const Vector3<Scalar> h(p(6), p(7), p(8));
     for (int i = 0; i < n; ++i) {
       const Vector3<Scalar> z = (samples[i] - centre) * inv_scale + h;
@@ -76,18 +93,19 @@ struct MagProblem {
 // W = (Q / r)^(1/2), the symmetric square root, and h = -(ellipsoid centre).
 template <typename Scalar>
 Status fit_ellipsoid_sym(const MagProblem<Scalar>& prob, MagVector<Scalar>& p0) {
-  NormalEquations<Scalar, kMagParams> ne;
+  Ne<Scalar> ne;
+  ne.resize(kMagParams);
   for (int i = 0; i < prob.n; ++i) {
     const Vector3<Scalar> x = (prob.samples[i] - prob.centre) * prob.inv_scale;
     const Status s = ne.add(detail::quadric_row(x), Scalar(-1));
     if (s != Status::kOk) return s;
   }
-  MagVector<Scalar> theta;
+  LmVector<Scalar> theta;
   const Status s = ne.solve_damped(Scalar(0), theta);
   if (s != Status::kOk) return s;
   Matrix3<Scalar> q;
   Vector3<Scalar> u;
-  detail::quadric_from(theta, q, u);
+  detail::quadric_from(MagVector<Scalar>(theta.template head<kMagParams>()), q, u);
   Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
   eig.compute(q);
   if (eig.info() != Eigen::Success) return Status::kNotAnEllipsoid;
@@ -136,9 +154,8 @@ Scalar calibrated_coverage(const MagProblem<Scalar>& prob, const Matrix3<Scalar>
 // The largest sigma of the normalised parameters relative to the ellipsoid's radius: h's in
 // radii, W's entries relative to W's mean diagonal (both unit-free).
 template <typename Scalar>
-Status relative_sigma(const NormalEquations<Scalar, kMagParams>& ne, const MagVector<Scalar>& p,
-                      Scalar& spread) {
-  MagVector<Scalar> sd;
+Status relative_sigma(const Ne<Scalar>& ne, const MagVector<Scalar>& p, Scalar& spread) {
+  LmVector<Scalar> sd;
   const Status s = ne.standard_deviations(sd);
   if (s != Status::kOk) return s;
   const Scalar w_mean = (p(kS00) + p(kS11) + p(kS22)) / Scalar(3);
@@ -245,8 +262,7 @@ struct AlignProblem {
     return Status::kOk;
   }
 
-  Status accumulate(const AlignVector<Scalar>& p,
-                    NormalEquations<Scalar, kMagAlignParams>& ne) const {
+  Status accumulate(const LmVector<Scalar>& p, Ne<Scalar>& ne) const {
     const Vector3<Scalar> phi(p(0), p(1), p(2));
     const Matrix3<Scalar> r = rotation_exp(phi) * r0;
     const Matrix3<Scalar> jl = left_jacobian(phi);
@@ -324,8 +340,8 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   // already shows whether the samples determine the ellipsoid (from a small cap they do not, and
   // the LM would wander along a flat valley to its iteration limit). Refused as poor coverage,
   // with the coverage of the start's calibrated directions for the user.
-  LevenbergMarquardt<Scalar, kMagParams> lm(settings.lm);
-  s = lm.start(prob, p0);
+  Lm<Scalar> lm(settings.lm);
+  s = lm.start(prob, padded(p0), kMagParams);
   if (s != Status::kRunning && !succeeded(s)) return out.status = s;
   {
     const Scalar coverage0 = calibrated_coverage(
@@ -342,7 +358,7 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   s = precision_limited(lm, s);
   out.iterations = lm.iterations();
   if (!succeeded(s)) return out.status = s;
-  const MagVector<Scalar>& p = lm.parameters();
+  const MagVector<Scalar> p = lm.parameters().template head<kMagParams>();
   const Matrix3<Scalar> w = sym_matrix(p);
   const Vector3<Scalar> h(p(6), p(7), p(8));
   // The refinement may leave the ellipsoid (it never should near a closed-form start).
@@ -355,7 +371,7 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   const Scalar det = w.determinant();
   const Scalar g = Scalar(1) / std::cbrt(det);  // det(W)^(-1/3)
   const Scalar field = settings.unit_ut * scale * g;
-  const NormalEquations<Scalar, kMagParams>& ne = lm.normal_equations();
+  const Ne<Scalar>& ne = lm.normal_equations();
   const Scalar rms = std::sqrt(ne.weighted_sse() / Scalar(n));
   const Scalar coverage = calibrated_coverage(prob, w, h, cells_per_edge);
   if (!std::isfinite(field) || !std::isfinite(rms) || !std::isfinite(g))
@@ -367,7 +383,7 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   // Sigmas: Cov = f/(m - 9) H^-1 in normalised units. h_raw = scale h - centre; S = unit g(W)
   // with g(W) = W det(W)^(-1/3), whose derivative along a symmetric direction E is
   // det^(-1/3) (E - W tr(W^-1 E) / 3).
-  Eigen::Matrix<Scalar, kMagParams, kMagParams> cov;
+  typename Ne<Scalar>::Matrix cov;  // the first kMagParams rows and columns
   s = ne.covariance(cov);
   if (s != Status::kOk) return out.status = s;
   const Matrix3<Scalar> w_inv = w.inverse();
@@ -452,23 +468,24 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
   p0 << Scalar(0), Scalar(0), Scalar(0), -mean / Scalar(n);
   // A rank-deficient start (e.g. every rest with the same up) is refused at once; a merely
   // poorly determined rotation is judged by its sigma at the solution, whatever the LM's end.
-  LevenbergMarquardt<Scalar, kMagAlignParams> lm(settings.lm);
-  Status s = lm.start(prob, p0);
+  Lm<Scalar> lm(settings.lm);
+  Status s = lm.start(prob, padded(p0), kMagAlignParams);
   if (s != Status::kRunning && !succeeded(s)) return inout.alignment_status = s;
-  AlignVector<Scalar> sd0;
+  LmVector<Scalar> sd0;
   const Status obs = lm.normal_equations().standard_deviations(sd0);
   if (obs != Status::kOk) return inout.alignment_status = obs;
   while (s == Status::kRunning) s = lm.step(prob);
   s = precision_limited(lm, s);
-  const AlignVector<Scalar>& p = lm.parameters();
+  const AlignVector<Scalar> p = lm.parameters().template head<kMagAlignParams>();
   // Re-linearise at the solution (phi = 0 about the found R): the exact Jacobian for sigma.
   prob.r0 = rotation_exp(Vector3<Scalar>(p(0), p(1), p(2)));
   const Scalar d = p(3);
   AlignVector<Scalar> at;
   at << Scalar(0), Scalar(0), Scalar(0), d;
-  NormalEquations<Scalar, kMagAlignParams> ne;
-  Status a = prob.accumulate(at, ne);
-  AlignVector<Scalar> sd;
+  Ne<Scalar> ne;
+  ne.resize(kMagAlignParams);
+  Status a = prob.accumulate(padded(at), ne);
+  LmVector<Scalar> sd;
   if (a == Status::kOk) a = ne.standard_deviations(sd);
   if (a != Status::kOk) return inout.alignment_status = a;
   const Vector3<Scalar> rot_sigma(sd(0), sd(1), sd(2));

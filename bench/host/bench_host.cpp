@@ -28,7 +28,8 @@ imucal::PoseStore<Scalar, 40> make_poses() {
 
 template <typename Scalar>
 void BM_AccumulateOnePose(benchmark::State& state) {
-  imucal::NormalEquations<Scalar, imucal::kAccelParams> ne;
+  imucal::NormalEquations<Scalar, imucal::kSolverCapacity> ne;  // as the solver's: sized to 9
+  ne.resize(imucal::kAccelParams);
   imucal::AccelVector<Scalar> p;
   p << 0, 0, 0, 1, 1, 1, 0, 0, 0;
   const imucal::Vector3<Scalar> x(Scalar(0.3), Scalar(-0.5), Scalar(0.8));

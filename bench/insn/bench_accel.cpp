@@ -23,8 +23,10 @@ int main() {
   AccelSettings<float> settings;
   settings.gravity = 9.81f;
 
-  // 1. One pose row: residual, Jacobian and the fold into the 9x9 accumulator.
-  static NormalEquations<float, kAccelParams> ne;
+  // 1. One pose row: residual, Jacobian and the fold into the accumulator, sized to the 9
+  // unknowns as the solver's.
+  static NormalEquations<float, kSolverCapacity> ne;
+  ne.resize(kAccelParams);
   AccelVector<float> p;
   p << 0.0f, 0.0f, 0.0f, 1.0f, 1.0f, 1.0f, 0.0f, 0.0f, 0.0f;
   const Vector3<float> x(0.3f, -0.5f, 0.8f);
@@ -52,8 +54,10 @@ int main() {
   AccelVector<float> p0;
   fit_ellipsoid(poses.span(), problem.centre, scale, p0);
   for (int k = 0; k < kAccelParams; ++k) p0(k) += 0.01f;
-  static LevenbergMarquardt<float, kAccelParams> lm;
-  lm.start(problem, p0);
+  static AccelSolver<float>::Lm lm;
+  AccelSolver<float>::LmVector p0_lm = AccelSolver<float>::LmVector::Zero();
+  p0_lm.head<kAccelParams>() = p0;
+  lm.start(problem, p0_lm, kAccelParams);
   bench_announce("accel: one accepted LM iteration, 40 poses");
   imucal_bench_begin();
   const Status it = lm.step(problem);

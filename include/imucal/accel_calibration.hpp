@@ -87,6 +87,12 @@ class AccelSolver {
   // AccelCalibration::sigma squared (a held parameter's row and column are 0).
   Status covariance(Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const;
 
+  // The LM's: the 9 unknowns at run-time size 9 in the capacity the gyro's solver shares
+  // (kSolverCapacity), the entries beyond them 0.
+  using Lm = LevenbergMarquardt<Scalar, kSolverCapacity>;
+  using LmVector = typename Lm::Vector;
+  static_assert(kAccelParams <= kSolverCapacity, "the accelerometer's unknowns exceed the LM's");
+
   // The residual problem in normalised units (public for the LM's Problem interface).
   struct Problem {
     PoseSpan<Scalar> poses;
@@ -98,8 +104,7 @@ class AccelSolver {
     std::uint16_t held = 0;    // parameters held at 0 by a stiff prior row
     // The weight of pose i: its sample count, or 1 / the variance of its residual.
     Scalar weight(int i) const;
-    Status accumulate(const AccelVector<Scalar>& p,
-                      NormalEquations<Scalar, kAccelParams>& ne) const;
+    Status accumulate(const LmVector& p, typename Lm::Accumulator& ne) const;
   };
 
  private:
@@ -111,10 +116,12 @@ class AccelSolver {
   Scalar chi2(const AccelVector<Scalar>& p) const;
   Scalar sigma_factor(const AccelVector<Scalar>& p) const;
   AccelVector<Scalar> sensor_units() const;
+  AccelVector<Scalar> parameters() const { return lm_.parameters().template head<kAccelParams>(); }
+  Status start_lm(const AccelVector<Scalar>& p0);
 
   AccelSettings<Scalar> settings_;
   Problem problem_{};
-  LevenbergMarquardt<Scalar, kAccelParams> lm_;
+  Lm lm_;
   Status status_ = Status::kNotStarted;
   int floor_rounds_ = 0;
   bool reweighted_ = false;

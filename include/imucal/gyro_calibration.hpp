@@ -61,6 +61,7 @@ template <typename Scalar>
 class GyroProblem {
  public:
   static constexpr int N = kGyroParams;
+  static_assert(N == kSolverCapacity, "the accelerometer's solver shares the gyro's capacity");
   using Vector = Eigen::Matrix<Scalar, N, 1>;
   using Accumulator = NormalEquations<Scalar, N>;
 

@@ -39,10 +39,11 @@ class LevenbergMarquardt {
   explicit LevenbergMarquardt(const LmSettings<Scalar>& settings = LmSettings<Scalar>())
       : settings_(settings) {}
 
-  // Evaluates the problem at p0. Returns kRunning when the iteration can proceed.
+  // Evaluates the problem at p0. Returns kRunning when the iteration can proceed. size: as for
+  // begin().
   template <class Problem>
-  Status start(const Problem& problem, const Vector& p0) {
-    if (begin(p0) != Status::kRunning) return status_;
+  Status start(const Problem& problem, const Vector& p0, int size = N) {
+    if (begin(p0, size) != Status::kRunning) return status_;
     return evaluated(problem.accumulate(evaluation_point(), evaluation_accumulator()));
   }
 
@@ -84,6 +85,16 @@ class LevenbergMarquardt {
     return status_ = Status::kRunning;
   }
 
+  // Not started, with new settings, in place (as a new LevenbergMarquardt(settings)).
+  void reset(const LmSettings<Scalar>& settings) {
+    settings_ = settings;
+    p_.setZero();
+    iterations_ = 0;
+    lambda_ = predicted_ = step_norm_ = Scalar(0);
+    at_start_ = pending_ = false;
+    status_ = Status::kNotStarted;
+  }
+
   bool evaluation_pending() const { return status_ == Status::kRunning && pending_; }
   const Vector& evaluation_point() const { return at_start_ ? p_ : trial_p_; }
   Accumulator& evaluation_accumulator() { return at_start_ ? current_ : trial_; }
@@ -107,7 +118,7 @@ class LevenbergMarquardt {
       current_ = trial_;
       lambda_ = lambda_ / Scalar(10);
       if (lambda_ < Scalar(1e-12)) lambda_ = Scalar(1e-12);
-      const bool tiny_step = small_step(delta_);
+      const bool tiny_step = small_step(step_norm_);
       const Scalar tol = cost_tolerance(f0);
       const bool tiny_gain = actual <= tol && predicted_ <= Scalar(2) * tol;
       // A heavily damped step is small for the wrong reason: then only the undamped
@@ -145,7 +156,7 @@ class LevenbergMarquardt {
   bool gauss_newton_done() const {
     Vector gn;
     if (current_.solve_damped(Scalar(0), gn) != Status::kOk) return false;
-    return small_step(gn) ||
+    return small_step(gn.norm()) ||
            current_.predicted_decrease(gn) <= cost_tolerance(current_.weighted_sse());
   }
 
@@ -155,9 +166,10 @@ class LevenbergMarquardt {
                                                         : settings_.absolute_cost_tolerance;
   }
 
-  bool small_step(const Vector& delta) const {
+  // A step of this norm is small against the parameters.
+  bool small_step(Scalar step_norm) const {
     const Scalar tol = settings_.step_tolerance;
-    return delta.norm() <= tol * (p_.norm() + tol);
+    return step_norm <= tol * (p_.norm() + tol);
   }
 
   // Solves for the next trial point (one iteration); a failed solve raises the damping and
@@ -165,12 +177,14 @@ class LevenbergMarquardt {
   Status propose() {
     for (;;) {
       ++iterations_;
-      const Status s = current_.solve_damped(lambda_, delta_);
+      Vector delta;
+      const Status s = current_.solve_damped(lambda_, delta);
       // Damping is relative to diag(H): it cannot cure a column with no information.
       if (s == Status::kRankDeficient) return status_ = s;
       if (s == Status::kOk) {
-        predicted_ = current_.predicted_decrease(delta_);
-        trial_p_ = p_ + delta_;
+        predicted_ = current_.predicted_decrease(delta);
+        step_norm_ = delta.norm();
+        trial_p_ = p_ + delta;
         trial_.clear();
         pending_ = true;
         return status_ = Status::kRunning;
@@ -195,7 +209,7 @@ class LevenbergMarquardt {
   Accumulator trial_;
   Vector p_ = Vector::Zero();
   Vector trial_p_ = Vector::Zero();
-  Vector delta_ = Vector::Zero();
+  Scalar step_norm_ = Scalar(0);  // of the step to trial_p_
   Scalar predicted_ = Scalar(0);
   Scalar lambda_ = Scalar(0);
   bool at_start_ = false;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <type_traits>
 
 #include "imucal/ldlt.hpp"
 #include "imucal/status.hpp"
@@ -123,6 +124,10 @@ __attribute__((noinline)) Scalar ne_gradient_cosine(const Scalar* h, const Scala
 
 }  // namespace detail
 
+// The capacity the accelerometer's solver (9 unknowns, solved at size 9) and the gyro's (12) share:
+// one copy of the LM and of its normal equations serves both in a firmware.
+constexpr int kSolverCapacity = 12;
+
 // The normal equations of at most N unknowns; size() of them (N unless resize() says fewer) are
 // solved for, the first size() entries of every vector. The entries beyond size() are ignored in
 // the rows and 0 in every result: one accumulator (and one solver around it) serves a problem
@@ -154,10 +159,12 @@ class NormalEquations {
 
   // Folds in one residual row e with Jacobian row j and weight w >= 0. A row with a non-finite
   // entry or a negative weight is refused and changes nothing.
-  Status add(const Vector& j, Scalar e, Scalar w = Scalar(1)) {
-    const Status s = detail::ne_add(h_, v_.data(), f_, trace_, n_, j.data(), e, w);
-    if (s == Status::kOk) ++rows_;
-    return s;
+  Status add(const Vector& j, Scalar e, Scalar w = Scalar(1)) { return add_row(j.data(), e, w); }
+  // A row of a problem with M < N unknowns (at least size() entries; kInvalidArgument otherwise),
+  // as a plain vector (an expression of M entries must be evaluated first).
+  template <int M, typename = std::enable_if_t<(M < N)>>
+  Status add(const Eigen::Matrix<Scalar, M, 1>& j, Scalar e, Scalar w = Scalar(1)) {
+    return n_ > M ? Status::kInvalidArgument : add_row(j.data(), e, w);
   }
 
   int rows() const { return rows_; }
@@ -245,6 +252,13 @@ class NormalEquations {
   }
 
  private:
+  // The row's first size() entries: one copy of the fold for every row type.
+  __attribute__((noinline)) Status add_row(const Scalar* j, Scalar e, Scalar w) {
+    const Status s = detail::ne_add(h_, v_.data(), f_, trace_, n_, j, e, w);
+    if (s == Status::kOk) ++rows_;
+    return s;
+  }
+
   // Calls f(c, column c of variance H^-1) for each c < size() (variance < 0: f/(m-n)), one column
   // at a time.
   template <class F>
