@@ -473,6 +473,10 @@ Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
 
 }  // namespace
 
+CalibrationRecord::CalibrationRecord() = default;
+CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) = default;
+CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) = default;
+
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc) {
   // CRC of each nibble value, reflected polynomial 0xEDB88320.
   static constexpr std::uint32_t kNibble[16] = {0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu,

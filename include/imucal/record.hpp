@@ -73,6 +73,11 @@ enum RecordPart : std::uint16_t {
 // What a record holds: the calibration (quality, sample rate and temperature included) and
 // who it belongs to. The parts absent from `parts` keep status kNotStarted and zeros.
 struct CalibrationRecord {
+  // Out of line (record.cpp): one copy of the member-wise code, whoever copies a record.
+  CalibrationRecord();
+  CalibrationRecord(const CalibrationRecord& other);
+  CalibrationRecord& operator=(const CalibrationRecord& other);
+
   std::uint8_t version = kRecordVersion;  // of the decoded bytes (encode writes kRecordVersion)
   std::uint32_t device_id = 0;
   std::uint32_t sensor_id = 0;
