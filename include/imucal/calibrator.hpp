@@ -73,8 +73,7 @@ class Calibrator {
   static constexpr int kMaxSegments = MaxSegments;
 
   explicit Calibrator(const CalibratorSettings<Scalar>& settings = CalibratorSettings<Scalar>())
-      : settings_(settings) {
-    solver_.configure(settings.accel, settings.gyro);
+      : settings_(settings), solver_(settings.accel, settings.gyro) {
     reset();
   }
 

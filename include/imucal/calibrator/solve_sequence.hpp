@@ -43,6 +43,11 @@ class SolveSequence {
                     std::is_trivially_destructible<GyroSolver<Scalar>>::value,
                 "the solve memory is rebuilt in place without a destructor call");
 
+  SolveSequence() = default;
+  // The solvers for these settings from the start, as configure() (no default ones built first).
+  SolveSequence(const AccelSettings<Scalar>& accel, const GyroSettings<Scalar>& gyro)
+      : memory_(accel), gyro_(gyro) {}
+
   // The solvers for these settings (the gyro's: refine_bias picks 9 or 12 parameters).
   void configure(const AccelSettings<Scalar>& accel, const GyroSettings<Scalar>& gyro) {
     memory_.make_accel(accel);
@@ -150,6 +155,7 @@ class SolveSequence {
   class Memory {
    public:
     Memory() { new (&u_.accel) AccelSolver<Scalar>(); }
+    explicit Memory(const AccelSettings<Scalar>& s) { new (&u_.accel) AccelSolver<Scalar>(s); }
     Memory(const Memory& o) { copy_from(o); }
     Memory& operator=(const Memory& o) {
       if (this != &o) copy_from(o);
