@@ -479,11 +479,14 @@ template <typename Scalar>
 Status AccelSolver<Scalar>::covariance(
     Eigen::Matrix<Scalar, kAccelParams, kAccelParams>& cov) const {
   if (!succeeded(status_)) return status_;
-  typename Lm::Accumulator::Matrix c;
-  const Status s = lm_.normal_equations().covariance(c, sigma_factor(parameters()));
+  // Column by column into the 9 x 9: no capacity-sized matrix on the stack.
+  Eigen::Matrix<Scalar, kAccelParams, kAccelParams> c;
+  const Status s = lm_.normal_equations().inverse_columns(
+      sigma_factor(parameters()),
+      [&c](int col, const LmVector& column) { c.col(col) = column.template head<kAccelParams>(); });
   if (s != Status::kOk) return s;
   const AccelVector<Scalar> d = sensor_units();
-  cov = d.asDiagonal() * c.template topLeftCorner<kAccelParams, kAccelParams>() * d.asDiagonal();
+  cov = d.asDiagonal() * c * d.asDiagonal();
   return all_finite(cov) ? Status::kOk : Status::kIllConditioned;
 }
 

@@ -383,9 +383,13 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   // Sigmas: Cov = f/(m - 9) H^-1 in normalised units. h_raw = scale h - centre; S = unit g(W)
   // with g(W) = W det(W)^(-1/3), whose derivative along a symmetric direction E is
   // det^(-1/3) (E - W tr(W^-1 E) / 3).
-  typename Ne<Scalar>::Matrix cov;  // the first kMagParams rows and columns
-  s = ne.covariance(cov);
+  // Column by column into the 9 x 9: no capacity-sized matrix on the stack.
+  Eigen::Matrix<Scalar, kMagParams, kMagParams> cov;
+  s = ne.inverse_columns(Scalar(-1), [&cov](int col, const LmVector<Scalar>& column) {
+    cov.col(col) = column.template head<kMagParams>();
+  });
   if (s != Status::kOk) return out.status = s;
+  if (!all_finite(cov)) return out.status = Status::kIllConditioned;
   const Matrix3<Scalar> w_inv = w.inverse();
   Eigen::Matrix<Scalar, kMagSymEntries, kMagSymEntries> jac;  // d S-entry / d W-entry
   static constexpr int kRow[kMagSymEntries] = {0, 1, 2, 0, 0, 1};
