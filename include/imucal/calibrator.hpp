@@ -61,7 +61,7 @@
 namespace imucal {
 
 // The defaults fit Tedaldi's protocol (the xsens recording: 41 poses, one partial coarsening of
-// the segment store in the motion after its last rest) in 32,736 bytes of float
+// the segment store in the motion after its last rest) in 32,752 bytes of float
 // (bench/footprint).
 template <typename Scalar, int MaxPoses = 48, int MaxSegments = 630, int DelayBlocks = 8>
 class Calibrator {
