@@ -38,7 +38,8 @@ namespace detail {
 // The accumulator's arithmetic on n unknowns, written once for every size (NormalEquations holds
 // the storage): h is the packed lower triangle, column by column, of an n x n matrix. The factor,
 // the predicted decrease and the gradient cosine are kept out of line (one copy for every size and
-// caller); the row fold, called once per residual in every evaluation, is inlined.
+// caller); the row fold, called once per residual in every evaluation, is inlined into each
+// accumulator's one out-of-line add_row().
 inline int packed_index(int n, int r, int c) { return c * n - c * (c - 1) / 2 + (r - c); }
 
 template <typename Scalar>
@@ -124,8 +125,9 @@ __attribute__((noinline)) Scalar ne_gradient_cosine(const Scalar* h, const Scala
 
 }  // namespace detail
 
-// The capacity the accelerometer's solver (9 unknowns, solved at size 9) and the gyro's (12) share:
-// one copy of the LM and of its normal equations serves both in a firmware.
+// The capacity the solvers share: the gyro's 12 unknowns, the accelerometer's 9 and the
+// magnetometer's 9 and 4 at their run-time size in it, so that one copy of the LM and of its
+// normal equations serves them all in a firmware.
 constexpr int kSolverCapacity = 12;
 
 // The normal equations of at most N unknowns; size() of them (N unless resize() says fewer) are
