@@ -263,9 +263,7 @@ void expect_lm_recovers_from(const Store& poses, double gravity,
   for (int k = 0; k < kAccelParams; ++k) p0(k) += static_cast<Scalar>(0.05 * rng.uniform(-1, 1));
 
   typename AccelSolver<Scalar>::Lm lm(settings.lm);
-  typename AccelSolver<Scalar>::LmVector p0_lm = AccelSolver<Scalar>::LmVector::Zero();
-  p0_lm.template head<kAccelParams>() = p0;
-  Status s = lm.start(problem, p0_lm, kAccelParams);
+  Status s = lm.start(problem, p0);
   Scalar last = lm.normal_equations().weighted_sse();
   while (s == Status::kRunning) {
     s = lm.step(problem);

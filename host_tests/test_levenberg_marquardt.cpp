@@ -187,7 +187,7 @@ TEST(LevenbergMarquardt, AProblemSmallerThanTheCapacitySolvesAsItsOwnSize) {
   const Status s2 = own.run(ExpDecay{}, Eigen::Vector2d(1.0, 0.1));
   ASSERT_TRUE(succeeded(s2)) << to_string(s2);
   LevenbergMarquardt<double, 3> wide;
-  Status s3 = wide.start(ExpDecayIn<3>{}, Eigen::Vector3d(1.0, 0.1, 0.0), 2);
+  Status s3 = wide.start(ExpDecayIn<3>{}, Eigen::Vector2d(1.0, 0.1));  // its own p0: size 2
   while (s3 == Status::kRunning) s3 = wide.step(ExpDecayIn<3>{});
   EXPECT_EQ(s3, s2);
   EXPECT_EQ(wide.iterations(), own.iterations());

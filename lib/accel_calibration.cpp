@@ -254,9 +254,7 @@ LmSettings<Scalar> AccelSolver<Scalar>::lm_settings() const {
 template <typename Scalar>
 Status AccelSolver<Scalar>::start_lm(const AccelVector<Scalar>& p0) {
   lm_.reset(lm_settings());
-  LmVector p = LmVector::Zero();
-  p.template head<kAccelParams>() = p0;
-  return lm_.start(problem_, p, kAccelParams);
+  return lm_.start(problem_, p0);
 }
 
 template <typename Scalar>

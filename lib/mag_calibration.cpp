@@ -35,14 +35,6 @@ using Ne = NormalEquations<Scalar, kSolverCapacity>;
 template <typename Scalar>
 using LmVector = Eigen::Matrix<Scalar, kSolverCapacity, 1>;
 
-// The first M entries of x, the rest 0.
-template <typename Scalar, int M>
-LmVector<Scalar> padded(const Eigen::Matrix<Scalar, M, 1>& x) {
-  LmVector<Scalar> p = LmVector<Scalar>::Zero();
-  p.template head<M>() = x;
-  return p;
-}
-
 template <typename Scalar>
 Matrix3<Scalar> sym_matrix(const MagVector<Scalar>& p) {
   Matrix3<Scalar> w;
@@ -341,7 +333,7 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   // the LM would wander along a flat valley to its iteration limit). Refused as poor coverage,
   // with the coverage of the start's calibrated directions for the user.
   Lm<Scalar> lm(settings.lm);
-  s = lm.start(prob, padded(p0), kMagParams);
+  s = lm.start(prob, p0);
   if (s != Status::kRunning && !succeeded(s)) return out.status = s;
   {
     const Scalar coverage0 = calibrated_coverage(
@@ -473,7 +465,7 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
   // A rank-deficient start (e.g. every rest with the same up) is refused at once; a merely
   // poorly determined rotation is judged by its sigma at the solution, whatever the LM's end.
   Lm<Scalar> lm(settings.lm);
-  Status s = lm.start(prob, padded(p0), kMagAlignParams);
+  Status s = lm.start(prob, p0);
   if (s != Status::kRunning && !succeeded(s)) return inout.alignment_status = s;
   LmVector<Scalar> sd0;
   const Status obs = lm.normal_equations().standard_deviations(sd0);
@@ -484,11 +476,11 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
   // Re-linearise at the solution (phi = 0 about the found R): the exact Jacobian for sigma.
   prob.r0 = rotation_exp(Vector3<Scalar>(p(0), p(1), p(2)));
   const Scalar d = p(3);
-  AlignVector<Scalar> at;
-  at << Scalar(0), Scalar(0), Scalar(0), d;
+  LmVector<Scalar> at = LmVector<Scalar>::Zero();  // phi = 0, then d
+  at(3) = d;
   Ne<Scalar> ne;
   ne.resize(kMagAlignParams);
-  Status a = prob.accumulate(padded(at), ne);
+  Status a = prob.accumulate(at, ne);
   LmVector<Scalar> sd;
   if (a == Status::kOk) a = ne.standard_deviations(sd);
   if (a != Status::kOk) return inout.alignment_status = a;

@@ -55,9 +55,7 @@ int main() {
   fit_ellipsoid(poses.span(), problem.centre, scale, p0);
   for (int k = 0; k < kAccelParams; ++k) p0(k) += 0.01f;
   static AccelSolver<float>::Lm lm;
-  AccelSolver<float>::LmVector p0_lm = AccelSolver<float>::LmVector::Zero();
-  p0_lm.head<kAccelParams>() = p0;
-  lm.start(problem, p0_lm, kAccelParams);
+  lm.start(problem, p0);
   bench_announce("accel: one accepted LM iteration, 40 poses");
   imucal_bench_begin();
   const Status it = lm.step(problem);

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <type_traits>
 
 #include "imucal/normal_equations.hpp"
 
@@ -45,6 +46,13 @@ class LevenbergMarquardt {
   Status start(const Problem& problem, const Vector& p0, int size = N) {
     if (begin(p0, size) != Status::kRunning) return status_;
     return evaluated(problem.accumulate(evaluation_point(), evaluation_accumulator()));
+  }
+  // A problem of M < N unknowns from its own p0: padded with 0 and solved at size M.
+  template <class Problem, int M, typename = std::enable_if_t<(M < N)>>
+  Status start(const Problem& problem, const Eigen::Matrix<Scalar, M, 1>& p0) {
+    Vector p = Vector::Zero();
+    p.template head<M>() = p0;
+    return start(problem, p, M);
   }
 
   // One iteration: one pass over the residuals and one or more N x N factorisations.
