@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "imucal/elementary.hpp"
+#include "imucal/gyro_segment.hpp"  // rodrigues_coefficients, skew, rotation_exp
 #include "quadric.hpp"
 
 namespace imucal {
@@ -175,48 +176,17 @@ bool settings_valid(const MagSettings<Scalar>& s) {
          s.max_alignment_sigma > Scalar(0) && s.max_relative_sigma > Scalar(0);
 }
 
-// exp([phi]x) by Rodrigues' formula.
+// exp([phi]x) and the left Jacobian of SO(3), I + b K + c K^2 (K = [phi]x), from one evaluation
+// of the Rodrigues coefficients (gyro_segment.hpp).
 template <typename Scalar>
-Matrix3<Scalar> rotation_exp(const Vector3<Scalar>& phi) {
-  const Scalar t2 = phi.squaredNorm();
-  Matrix3<Scalar> k;
-  k << Scalar(0), -phi(2), phi(1),  //
-      phi(2), Scalar(0), -phi(0),   //
-      -phi(1), phi(0), Scalar(0);
-  Scalar a, b;  // sin t / t, (1 - cos t) / t^2
-  if (t2 < Scalar(1e-8)) {
-    a = Scalar(1) - t2 / Scalar(6);
-    b = Scalar(0.5) - t2 / Scalar(24);
-  } else {
-    const Scalar t = std::sqrt(t2);
-    Scalar sin_t, cos_t;
-    detail::sin_cos(t, sin_t, cos_t);
-    a = sin_t / t;
-    b = (Scalar(1) - cos_t) / t2;
-  }
-  return Matrix3<Scalar>::Identity() + a * k + b * (k * k);
-}
-
-// The left Jacobian of SO(3): I + (1 - cos t)/t^2 K + (t - sin t)/t^3 K^2, K = [phi]x.
-template <typename Scalar>
-Matrix3<Scalar> left_jacobian(const Vector3<Scalar>& phi) {
-  const Scalar t2 = phi.squaredNorm();
-  Matrix3<Scalar> k;
-  k << Scalar(0), -phi(2), phi(1),  //
-      phi(2), Scalar(0), -phi(0),   //
-      -phi(1), phi(0), Scalar(0);
-  Scalar a, b;
-  if (t2 < Scalar(1e-8)) {
-    a = Scalar(0.5) - t2 / Scalar(24);
-    b = Scalar(1) / Scalar(6) - t2 / Scalar(120);
-  } else {
-    const Scalar t = std::sqrt(t2);
-    Scalar sin_t, cos_t;
-    detail::sin_cos(t, sin_t, cos_t);
-    a = (Scalar(1) - cos_t) / t2;
-    b = (t - sin_t) / (t2 * t);
-  }
-  return Matrix3<Scalar>::Identity() + a * k + b * (k * k);
+void rotation_exp_and_left_jacobian(const Vector3<Scalar>& phi, Matrix3<Scalar>& r,
+                                    Matrix3<Scalar>& jl) {
+  Scalar a, b, c;
+  rodrigues_coefficients(phi.squaredNorm(), a, b, c);
+  const Matrix3<Scalar> k = skew(phi);
+  const Matrix3<Scalar> k2 = k * k;
+  r = Matrix3<Scalar>::Identity() + a * k + b * k2;
+  jl = Matrix3<Scalar>::Identity() + b * k + c * k2;
 }
 
 template <typename Scalar>
@@ -256,8 +226,9 @@ struct AlignProblem {
 
   Status accumulate(const LmVector<Scalar>& p, Ne<Scalar>& ne) const {
     const Vector3<Scalar> phi(p(0), p(1), p(2));
-    const Matrix3<Scalar> r = rotation_exp(phi) * r0;
-    const Matrix3<Scalar> jl = left_jacobian(phi);
+    Matrix3<Scalar> e, jl;
+    rotation_exp_and_left_jacobian(phi, e, jl);
+    const Matrix3<Scalar> r = e * r0;
     for (int i = 0; i < n; ++i) {
       Vector3<Scalar> up, field;
       Status s = directions(i, up, field);
