@@ -14,6 +14,10 @@
  * Debian package ships no qemu-plugin.h, so the few declarations used are
  * repeated below. No glib needed.
  *
+ * With profile=PATH, it also counts every instruction by address (all of the
+ * program's, inside the regions or not) and writes "ADDR COUNT" lines to PATH
+ * at exit, then "regions N": bench/insn_profile.py reads them.
+ *
  * Build:  cc -shared -fPIC -O2 -o libinsn_count.so insn_count.c
  * Run:    qemu-system-arm ... -plugin ./libinsn_count.so,begin=0xADDR,end=0xADDR \
  *             -d plugin -D plugin.log
@@ -68,6 +72,7 @@ size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb* tb);
 struct qemu_plugin_insn* qemu_plugin_tb_get_insn(const struct qemu_plugin_tb* tb, size_t idx);
 uint64_t qemu_plugin_insn_vaddr(const struct qemu_plugin_insn* insn);
 void qemu_plugin_outs(const char* string);
+void qemu_plugin_register_atexit_cb(qemu_plugin_id_t id, qemu_plugin_udata_cb_t cb, void* userdata);
 QEMU_PLUGIN_EXPORT int qemu_plugin_version = 1; /* QEMU_PLUGIN_VERSION */
 /* ---- end of API subset ---- */
 
@@ -75,6 +80,50 @@ static uint64_t begin_addr, end_addr;
 static uint64_t insn_count; /* running count, bumped inline (single vCPU) */
 static uint64_t snapshot;   /* insn_count at the latest begin marker */
 static bool in_region;
+static uint64_t regions; /* regions ended */
+
+/* Profile mode: one counter per instruction address, in blocks that never move (QEMU keeps
+ * the counter's address in the translated code). */
+#define PROFILE_BLOCK 4096
+struct profile_block {
+  uint64_t pc[PROFILE_BLOCK];
+  uint64_t count[PROFILE_BLOCK];
+  size_t used;
+  struct profile_block* next;
+};
+static const char* profile_path;
+static struct profile_block* profile_head;
+
+static uint64_t* profile_counter(uint64_t pc) {
+  struct profile_block* b;
+  for (b = profile_head; b; b = b->next)
+    for (size_t i = 0; i < b->used; i++)
+      if (b->pc[i] == pc) return &b->count[i];
+  if (!profile_head || profile_head->used == PROFILE_BLOCK) {
+    b = calloc(1, sizeof *b);
+    if (!b) return NULL;
+    b->next = profile_head;
+    profile_head = b;
+  }
+  b = profile_head;
+  b->pc[b->used] = pc;
+  return &b->count[b->used++];
+}
+
+static void on_exit_write_profile(qemu_plugin_id_t id, void* udata) {
+  FILE* f = fopen(profile_path, "w");
+  (void)id;
+  (void)udata;
+  if (!f) {
+    fprintf(stderr, "insn_count: cannot write %s\n", profile_path);
+    return;
+  }
+  for (struct profile_block* b = profile_head; b; b = b->next)
+    for (size_t i = 0; i < b->used; i++)
+      if (b->count[i]) fprintf(f, "%" PRIx64 " %" PRIu64 "\n", b->pc[i], b->count[i]);
+  fprintf(f, "regions %" PRIu64 "\n", regions);
+  fclose(f);
+}
 
 static void on_begin(unsigned int vcpu, void* udata) {
   (void)vcpu;
@@ -89,6 +138,7 @@ static void on_end(unsigned int vcpu, void* udata) {
   (void)udata;
   if (!in_region) return;
   in_region = false;
+  ++regions;
   snprintf(line, sizeof line, "insn_count %" PRIu64 "\n", insn_count - snapshot);
   qemu_plugin_outs(line);
 }
@@ -105,6 +155,11 @@ static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb* tb) {
     else if (pc == end_addr)
       qemu_plugin_register_vcpu_insn_exec_cb(insn, on_end, QEMU_PLUGIN_CB_NO_REGS, NULL);
     qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, &insn_count, 1);
+    if (profile_path) {
+      uint64_t* counter = profile_counter(pc);
+      if (counter)
+        qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, counter, 1);
+    }
   }
 }
 
@@ -116,6 +171,8 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
       begin_addr = strtoull(argv[i] + 6, NULL, 0) & ~1ULL;
     else if (strncmp(argv[i], "end=", 4) == 0)
       end_addr = strtoull(argv[i] + 4, NULL, 0) & ~1ULL;
+    else if (strncmp(argv[i], "profile=", 8) == 0)
+      profile_path = argv[i] + 8;
     else {
       fprintf(stderr, "insn_count: unknown argument '%s'\n", argv[i]);
       return -1;
@@ -126,5 +183,6 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
     return -1;
   }
   qemu_plugin_register_vcpu_tb_trans_cb(id, on_tb_trans);
+  if (profile_path) qemu_plugin_register_atexit_cb(id, on_exit_write_profile, NULL);
   return 0;
 }

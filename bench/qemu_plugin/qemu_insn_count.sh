@@ -13,6 +13,8 @@
 # Env:     IMUCAL_PLUGIN_DIR  where the plugin is built/cached
 #                             (default ${TMPDIR:-/tmp}/imucal_qemu_plugin-$UID)
 #          CC                 host C compiler (default cc)
+#          IMUCAL_INSN_PROFILE=PATH  also count every instruction by address into PATH
+#                             (bench/insn_profile.py reads it)
 # Note: picolibc's semihost crt0 sets argv[0]="program-name", argv[1]=ELF name,
 #       program args follow; args are space-joined by semihosting (no spaces).
 set -u
@@ -67,7 +69,7 @@ trap 'rm -f "$log"' EXIT
 
 timeout 600 "qemu-system-$system" -M "$machine" "${extra[@]}" -display none -monitor none \
     -serial none -chardev stdio,id=out -semihosting-config "$semi" \
-    -kernel "$elf" -plugin "$(esc "$so"),begin=0x$begin,end=0x$end" \
+    -kernel "$elf" -plugin "$(esc "$so"),begin=0x$begin,end=0x$end${IMUCAL_INSN_PROFILE:+,profile=$(esc "$IMUCAL_INSN_PROFILE")}" \
     -d plugin -D "$log"
 rc=$?
 [ $rc -eq 124 ] && echo "$0: qemu timed out after 600 s" >&2

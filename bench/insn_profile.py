@@ -1,0 +1,100 @@
+#!/usr/bin/env python3
+"""Where a benchmark's instructions go, by source line: runs an instruction-count program under
+QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the instructions
+of the functions whose names match FUNCTIONS by the project's source line they come from (code
+inlined from Eigen or the C++ library counts at the project line that called it), divided by
+CALLS (default: the number of counted regions). Markdown out.
+
+  bench/insn_profile.py PRESET ELF FUNCTIONS [CALLS] [LINES]
+  bench/insn_profile.py m4f build/insn/m4f/bench/bench_stream_insn 'Calibrator<.*>::take' 51175
+
+For bench_stream_insn and 51175 calls this is Calibrator::add() per sample, averaged over every
+sample of the Xsens recording (initial rest, rests and moves together; add() itself is inlined
+into the program, take() is its body). The programs are built with -g (bench/insn_cores.sh
+builds them in build/insn/CORE).
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+MACHINES = {"m4f": "mps2-an386", "m7": "mps2-an500", "m33": "mps2-an505", "m3": "mps2-an385",
+            "m0plus": "mps2-an385", "rv32": "riscv32:virt"}
+
+
+def main():
+    if len(sys.argv) < 4:
+        sys.exit(__doc__)
+    preset, elf, pattern = sys.argv[1:4]
+    calls = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+    top = int(sys.argv[5]) if len(sys.argv) > 5 else 25
+    here = os.path.dirname(os.path.abspath(__file__))
+    prefix = "riscv64-unknown-elf-" if preset == "rv32" else "arm-none-eabi-"
+    with tempfile.TemporaryDirectory() as tmp:
+        profile = os.path.join(tmp, "profile.txt")
+        run = subprocess.run([os.path.join(here, "qemu_plugin", "qemu_insn_count.sh"),
+                              MACHINES[preset], elf], capture_output=True, text=True,
+                             env=dict(os.environ, IMUCAL_INSN_PROFILE=profile))
+        if run.returncode != 0 or not os.path.exists(profile):
+            sys.exit(f"insn_profile: the program failed (exit {run.returncode})\n{run.stderr}")
+        counts, regions = {}, 0
+        for line in open(profile):
+            a, b = line.split()
+            if a == "regions":
+                regions = int(b)
+            else:
+                counts[int(a, 16)] = int(b)
+    if regions == 0:
+        sys.exit("insn_profile: no region was counted")
+    calls = calls or regions
+    # The matching functions' instruction addresses, from the symbol table.
+    syms = subprocess.run([prefix + "nm", "-S", "-C", "--defined-only", elf], capture_output=True,
+                          text=True, check=True).stdout
+    ranges = []
+    for text in syms.splitlines():
+        f = text.split(None, 3)
+        if len(f) == 4 and f[2] in "TtWw" and re.search(pattern, f[3]):
+            start = int(f[0], 16) & ~1
+            ranges.append((start, start + int(f[1], 16)))
+    counted = sorted(a for a in counts if any(lo <= a < hi for lo, hi in ranges))
+    if not counted:
+        sys.exit(f"insn_profile: no instruction of a function matching '{pattern}' ran")
+    # Each address's inlining chain, innermost first; the first frame in the project's sources.
+    root = os.path.dirname(here)
+    lines = subprocess.run([prefix + "addr2line", "-i", "-a", "-e", elf] +
+                           [hex(a) for a in counted], capture_output=True, text=True,
+                           check=True).stdout.splitlines()
+    where_of, address, chosen = {}, None, None
+    for text in lines + ["0x"]:
+        if text.startswith("0x"):
+            if address is not None:
+                where_of[address] = chosen or "(outside the project's sources)"
+            address, chosen = (int(text, 16) if text != "0x" else None), None
+            continue
+        path, _, line = text.partition(" ")[0].rpartition(":")
+        path = os.path.normpath(path)
+        if chosen is None and path.startswith(root + "/"):
+            chosen = f"{os.path.relpath(path, root)}:{line}"
+    by_line = {}
+    for a in counted:
+        by_line[where_of[a]] = by_line.get(where_of[a], 0) + counts[a]
+    total = sum(by_line.values())
+    print(f"functions matching '{pattern}': {total / calls:.1f} instructions per call "
+          f"({calls} calls, {regions} regions counted)\n")
+    print("| instructions per call | source line | code |")
+    print("| ---: | --- | --- |")
+    for where, n in sorted(by_line.items(), key=lambda kv: -kv[1])[:top]:
+        code = ""
+        if ":" in where:
+            path, line = where.rsplit(":", 1)
+            try:
+                code = open(os.path.join(root, path)).read().splitlines()[int(line) - 1].strip()
+            except (OSError, IndexError, ValueError):
+                pass
+        code = code[:80].replace("|", "\\|")
+        print(f"| {n / calls:.1f} | {where} | `{code}` |")
+
+
+if __name__ == "__main__":
+    main()
