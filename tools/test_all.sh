@@ -68,6 +68,12 @@ tools/fuzz.sh 60
 
 step "instruction counts (Cortex-M4F, exact, QEMU TCG plugin)"
 bench/run_insn_bench.sh m4f
+# Where add()'s instructions go on the recording (the plugin's profile mode), and where the code
+# goes.
+if [ "$require_xsens" = ON ]; then
+  bench/insn_profile.py m4f build/m4f/bench/bench_stream_insn 'Calibrator<.*>::take' 51175 12
+fi
+bench/footprint_breakdown.py build/m4f/bench/imucal_footprint build/m4f/bench/imucal_footprint_baseline
 
 step "instruction counts (RV32IMAC, soft float, exact, QEMU TCG plugin)"
 bench/run_insn_bench.sh rv32
