@@ -3,14 +3,14 @@
 QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the instructions
 of the functions whose names match FUNCTIONS by the project's source line they come from (code
 inlined from Eigen or the C++ library counts at the project line that called it), divided by
-CALLS (default: the number of counted regions). Markdown out.
+the number of regions profiled: the first REGIONS regions if given, else all. Markdown out.
 
-  bench/insn_profile.py PRESET ELF FUNCTIONS [CALLS] [LINES]
-  bench/insn_profile.py m4f build/insn/m4f/bench/bench_stream_insn 'Calibrator<.*>::take' 51175
+  bench/insn_profile.py PRESET ELF FUNCTIONS [REGIONS] [LINES]
+  bench/insn_profile.py m4f build/insn/m4f/bench/bench_stream_insn . 51175
 
-For bench_stream_insn and 51175 calls this is Calibrator::add() per sample, averaged over every
-sample of the Xsens recording (initial rest, rests and moves together; add() itself is inlined
-into the program, take() is its body). The programs are built with -g (bench/insn_cores.sh
+bench_stream_insn's first 51175 regions are the add() calls, one per sample of the Xsens
+recording: with '.' as FUNCTIONS, where add()'s instructions go, averaged over every sample
+(initial rest, rests and moves together). The programs are built with -g1 (bench/insn_cores.sh
 builds them in build/insn/CORE).
 """
 import os
@@ -27,7 +27,7 @@ def main():
     if len(sys.argv) < 4:
         sys.exit(__doc__)
     preset, elf, pattern = sys.argv[1:4]
-    calls = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+    first = int(sys.argv[4]) if len(sys.argv) > 4 else 0
     top = int(sys.argv[5]) if len(sys.argv) > 5 else 25
     here = os.path.dirname(os.path.abspath(__file__))
     prefix = "riscv64-unknown-elf-" if preset == "rv32" else "arm-none-eabi-"
@@ -35,7 +35,8 @@ def main():
         profile = os.path.join(tmp, "profile.txt")
         run = subprocess.run([os.path.join(here, "qemu_plugin", "qemu_insn_count.sh"),
                               MACHINES[preset], elf], capture_output=True, text=True,
-                             env=dict(os.environ, IMUCAL_INSN_PROFILE=profile))
+                             env=dict(os.environ, IMUCAL_INSN_PROFILE=profile,
+                                      IMUCAL_INSN_PROFILE_REGIONS=str(first)))
         if run.returncode != 0 or not os.path.exists(profile):
             sys.exit(f"insn_profile: the program failed (exit {run.returncode})\n{run.stderr}")
         counts, regions = {}, 0
@@ -47,7 +48,6 @@ def main():
                 counts[int(a, 16)] = int(b)
     if regions == 0:
         sys.exit("insn_profile: no region was counted")
-    calls = calls or regions
     # The matching functions' instruction addresses, from the symbol table.
     syms = subprocess.run([prefix + "nm", "-S", "-C", "--defined-only", elf], capture_output=True,
                           text=True, check=True).stdout
@@ -80,9 +80,9 @@ def main():
     for a in counted:
         by_line[where_of[a]] = by_line.get(where_of[a], 0) + counts[a]
     total = sum(by_line.values())
-    print(f"functions matching '{pattern}': {total / calls:.1f} instructions per call "
-          f"({calls} calls, {regions} regions counted)\n")
-    print("| instructions per call | source line | code |")
+    print(f"functions matching '{pattern}': {total / regions:.1f} instructions per region "
+          f"({regions} regions)\n")
+    print("| instructions per region | source line | code |")
     print("| ---: | --- | --- |")
     for where, n in sorted(by_line.items(), key=lambda kv: -kv[1])[:top]:
         code = ""
@@ -93,7 +93,7 @@ def main():
             except (OSError, IndexError, ValueError):
                 pass
         code = code[:80].replace("|", "\\|")
-        print(f"| {n / calls:.1f} | {where} | `{code}` |")
+        print(f"| {n / regions:.1f} | {where} | `{code}` |")
 
 
 if __name__ == "__main__":

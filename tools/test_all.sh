@@ -71,7 +71,7 @@ bench/run_insn_bench.sh m4f
 # Where add()'s instructions go on the recording (the plugin's profile mode), and where the code
 # goes.
 if [ "$require_xsens" = ON ]; then
-  bench/insn_profile.py m4f build/m4f/bench/bench_stream_insn 'Calibrator<.*>::take' 51175 12
+  bench/insn_profile.py m4f build/m4f/bench/bench_stream_insn . 51175 12
 fi
 bench/footprint_breakdown.py build/m4f/bench/imucal_footprint build/m4f/bench/imucal_footprint_baseline
 

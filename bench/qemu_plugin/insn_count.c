@@ -14,9 +14,11 @@
  * Debian package ships no qemu-plugin.h, so the few declarations used are
  * repeated below. No glib needed.
  *
- * With profile=PATH, it also counts every instruction by address (all of the
- * program's, inside the regions or not) and writes "ADDR COUNT" lines to PATH
- * at exit, then "regions N": bench/insn_profile.py reads them.
+ * With profile=PATH, it also counts the instructions inside the regions by
+ * address (an exec callback on every instruction: slower), only in the first
+ * N regions with profile_regions=N, and writes "ADDR COUNT" lines to PATH at
+ * exit, then "regions N" (the regions profiled): bench/insn_profile.py reads
+ * them.
  *
  * Build:  cc -shared -fPIC -O2 -o libinsn_count.so insn_count.c
  * Run:    qemu-system-arm ... -plugin ./libinsn_count.so,begin=0xADDR,end=0xADDR \
@@ -92,6 +94,8 @@ struct profile_block {
   struct profile_block* next;
 };
 static const char* profile_path;
+static uint64_t profile_regions; /* 0: all */
+static bool profiling;           /* inside a region that is profiled */
 static struct profile_block* profile_head;
 
 static uint64_t* profile_counter(uint64_t pc) {
@@ -110,6 +114,11 @@ static uint64_t* profile_counter(uint64_t pc) {
   return &b->count[b->used++];
 }
 
+static void on_profiled(unsigned int vcpu, void* counter) {
+  (void)vcpu;
+  if (profiling) ++*(uint64_t*)counter;
+}
+
 static void on_exit_write_profile(qemu_plugin_id_t id, void* udata) {
   FILE* f = fopen(profile_path, "w");
   (void)id;
@@ -121,7 +130,8 @@ static void on_exit_write_profile(qemu_plugin_id_t id, void* udata) {
   for (struct profile_block* b = profile_head; b; b = b->next)
     for (size_t i = 0; i < b->used; i++)
       if (b->count[i]) fprintf(f, "%" PRIx64 " %" PRIu64 "\n", b->pc[i], b->count[i]);
-  fprintf(f, "regions %" PRIu64 "\n", regions);
+  fprintf(f, "regions %" PRIu64 "\n",
+          profile_regions && profile_regions < regions ? profile_regions : regions);
   fclose(f);
 }
 
@@ -130,6 +140,7 @@ static void on_begin(unsigned int vcpu, void* udata) {
   (void)udata;
   snapshot = insn_count;
   in_region = true;
+  profiling = profile_path && (profile_regions == 0 || regions < profile_regions);
 }
 
 static void on_end(unsigned int vcpu, void* udata) {
@@ -137,7 +148,7 @@ static void on_end(unsigned int vcpu, void* udata) {
   (void)vcpu;
   (void)udata;
   if (!in_region) return;
-  in_region = false;
+  in_region = profiling = false;
   ++regions;
   snprintf(line, sizeof line, "insn_count %" PRIu64 "\n", insn_count - snapshot);
   qemu_plugin_outs(line);
@@ -158,7 +169,7 @@ static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb* tb) {
     if (profile_path) {
       uint64_t* counter = profile_counter(pc);
       if (counter)
-        qemu_plugin_register_vcpu_insn_exec_inline(insn, QEMU_PLUGIN_INLINE_ADD_U64, counter, 1);
+        qemu_plugin_register_vcpu_insn_exec_cb(insn, on_profiled, QEMU_PLUGIN_CB_NO_REGS, counter);
     }
   }
 }
@@ -173,6 +184,8 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
       end_addr = strtoull(argv[i] + 4, NULL, 0) & ~1ULL;
     else if (strncmp(argv[i], "profile=", 8) == 0)
       profile_path = argv[i] + 8;
+    else if (strncmp(argv[i], "profile_regions=", 16) == 0)
+      profile_regions = strtoull(argv[i] + 16, NULL, 0);
     else {
       fprintf(stderr, "insn_count: unknown argument '%s'\n", argv[i]);
       return -1;

@@ -13,8 +13,9 @@
 # Env:     IMUCAL_PLUGIN_DIR  where the plugin is built/cached
 #                             (default ${TMPDIR:-/tmp}/imucal_qemu_plugin-$UID)
 #          CC                 host C compiler (default cc)
-#          IMUCAL_INSN_PROFILE=PATH  also count every instruction by address into PATH
-#                             (bench/insn_profile.py reads it)
+#          IMUCAL_INSN_PROFILE=PATH  also count the regions' instructions by address into
+#                             PATH (bench/insn_profile.py reads it)
+#          IMUCAL_INSN_PROFILE_REGIONS=N  ... in the first N regions only
 # Note: picolibc's semihost crt0 sets argv[0]="program-name", argv[1]=ELF name,
 #       program args follow; args are space-joined by semihosting (no spaces).
 set -u
@@ -69,7 +70,7 @@ trap 'rm -f "$log"' EXIT
 
 timeout 600 "qemu-system-$system" -M "$machine" "${extra[@]}" -display none -monitor none \
     -serial none -chardev stdio,id=out -semihosting-config "$semi" \
-    -kernel "$elf" -plugin "$(esc "$so"),begin=0x$begin,end=0x$end${IMUCAL_INSN_PROFILE:+,profile=$(esc "$IMUCAL_INSN_PROFILE")}" \
+    -kernel "$elf" -plugin "$(esc "$so"),begin=0x$begin,end=0x$end${IMUCAL_INSN_PROFILE:+,profile=$(esc "$IMUCAL_INSN_PROFILE")}${IMUCAL_INSN_PROFILE_REGIONS:+,profile_regions=$IMUCAL_INSN_PROFILE_REGIONS}" \
     -d plugin -D "$log"
 rc=$?
 [ $rc -eq 124 ] && echo "$0: qemu timed out after 600 s" >&2
