@@ -2,7 +2,8 @@
 """Where a benchmark's instructions go, by source line: runs an instruction-count program under
 QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the instructions
 of the functions whose names match FUNCTIONS by the project's source line they come from (code
-inlined from Eigen or the C++ library counts at the project line that called it), divided by
+inlined from Eigen or the C++ library counts at the project line that called it; a function
+compiled outside the project, such as a soft-float routine, counts under its own name), divided by
 the number of regions profiled: the first REGIONS regions if given, else all. Markdown out.
 
   bench/insn_profile.py PRESET ELF FUNCTIONS [REGIONS] [LINES]
@@ -51,13 +52,19 @@ def main():
     # The matching functions' instruction addresses, from the symbol table.
     syms = subprocess.run([prefix + "nm", "-S", "-C", "--defined-only", elf], capture_output=True,
                           text=True, check=True).stdout
-    ranges = []
+    ranges, functions = [], []
     for text in syms.splitlines():
         f = text.split(None, 3)
-        if len(f) == 4 and f[2] in "TtWw" and re.search(pattern, f[3]):
+        if len(f) == 4 and f[2] in "TtWw":
             start = int(f[0], 16) & ~1
-            ranges.append((start, start + int(f[1], 16)))
+            functions.append((start, start + int(f[1], 16), f[3]))
+            if re.search(pattern, f[3]):
+                ranges.append((start, start + int(f[1], 16)))
     counted = sorted(a for a in counts if any(lo <= a < hi for lo, hi in ranges))
+
+    def function_of(a):  # code outside the project's sources: the C runtime, soft float
+        return next((name for lo, hi, name in functions if lo <= a < hi), "?")
+
     if not counted:
         sys.exit(f"insn_profile: no instruction of a function matching '{pattern}' ran")
     # Each address's inlining chain, innermost first; the first frame in the project's sources.
@@ -69,7 +76,7 @@ def main():
     for text in lines + ["0x"]:
         if text.startswith("0x"):
             if address is not None:
-                where_of[address] = chosen or "(outside the project's sources)"
+                where_of[address] = chosen or f"({function_of(address)})"
             address, chosen = (int(text, 16) if text != "0x" else None), None
             continue
         path, _, line = text.partition(" ")[0].rpartition(":")
