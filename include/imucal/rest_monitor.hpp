@@ -233,8 +233,10 @@ class RestMonitor {
            !std::isnan(s.accel_shift_max) && s.accel_shift_max > Scalar(0);
   }
 
+  // In the scalar type: in double on a single-precision FPU it would link the soft-double
+  // routines. check() keeps seconds at most 600: float rounds 6e8 us to within 32 us.
   static std::uint32_t to_us(Scalar seconds) {
-    return static_cast<std::uint32_t>(std::lround(static_cast<double>(seconds) * 1e6));
+    return static_cast<std::uint32_t>(std::lround(seconds * Scalar(1e6)));
   }
 
   // Seconds covered by n samples spanning first..last: the span plus one mean sample interval.
