@@ -49,13 +49,19 @@ def main():
                 counts[int(a, 16)] = int(b)
     if regions == 0:
         sys.exit("insn_profile: no region was counted")
+    # The profile must hold exactly the regions' own counts (the plugin's insn_count lines).
+    region_counts = [int(t.split()[1]) for t in run.stdout.splitlines()
+                     if t.startswith("insn_count ")][:regions]
+    if sum(counts.values()) != sum(region_counts):
+        sys.exit(f"insn_profile: the profile holds {sum(counts.values())} instructions, the "
+                 f"regions {sum(region_counts)}")
     # The matching functions' instruction addresses, from the symbol table.
     syms = subprocess.run([prefix + "nm", "-S", "-C", "--defined-only", elf], capture_output=True,
                           text=True, check=True).stdout
     ranges, functions = [], []
     for text in syms.splitlines():
         f = text.split(None, 3)
-        if len(f) == 4 and f[2] in "TtWw":
+        if len(f) == 4 and f[2] in {"T", "t", "W", "w"}:
             start = int(f[0], 16) & ~1
             functions.append((start, start + int(f[1], 16), f[3]))
             if re.search(pattern, f[3]):
@@ -68,7 +74,7 @@ def main():
     if not counted:
         sys.exit(f"insn_profile: no instruction of a function matching '{pattern}' ran")
     # Each address's inlining chain, innermost first; the first frame in the project's sources.
-    root = os.path.dirname(here)
+    root = os.path.dirname(os.path.realpath(here))
     lines = subprocess.run([prefix + "addr2line", "-i", "-a", "-e", elf] +
                            [hex(a) for a in counted], capture_output=True, text=True,
                            check=True).stdout.splitlines()
@@ -80,9 +86,12 @@ def main():
             address, chosen = (int(text, 16) if text != "0x" else None), None
             continue
         path, _, line = text.partition(" ")[0].rpartition(":")
-        path = os.path.normpath(path)
-        if chosen is None and path.startswith(root + "/"):
+        path = os.path.realpath(path) if path.startswith("/") else path
+        if chosen is None and path.startswith(root + "/") and line.isdigit() and int(line) > 0:
             chosen = f"{os.path.relpath(path, root)}:{line}"
+    if not any(not w.startswith("(") for w in where_of.values()):
+        sys.exit("insn_profile: no instruction maps to a line of the project's sources (an ELF "
+                 "built without -g1?)")
     by_line = {}
     for a in counted:
         by_line[where_of[a]] = by_line.get(where_of[a], 0) + counts[a]
@@ -93,13 +102,14 @@ def main():
     print("| ---: | --- | --- |")
     for where, n in sorted(by_line.items(), key=lambda kv: -kv[1])[:top]:
         code = ""
-        if ":" in where:
+        if not where.startswith("("):
             path, line = where.rsplit(":", 1)
             try:
                 code = open(os.path.join(root, path)).read().splitlines()[int(line) - 1].strip()
             except (OSError, IndexError, ValueError):
                 pass
         code = code[:80].replace("|", "\\|")
+        where = (where if len(where) <= 100 else where[:99] + "…").replace("|", "\\|")
         print(f"| {n / regions:.1f} | {where} | `{code}` |")
 
 
