@@ -257,9 +257,11 @@ void TemperatureFit<Scalar, MaxOrder>::solve_accel(const Sums<Order>& sums,
   for (int i = 0; i < 3; ++i) mean(i) = ne.h(i, kPhi) / (Scalar(2) * sum_w);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) spread(r, c) = ne.h(r, c) / (Scalar(4) * sum_w) - mean(r) * mean(c);
+  // The iterative solver, as the magnetometer's: computeDirect's closed form is less accurate
+  // for the smallest eigenvalue, and it links sinf, cosf and their argument reduction (5 KB).
   Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
-  eig.computeDirect(spread, Eigen::EigenvaluesOnly);
-  if (!all_finite(eig.eigenvalues())) {
+  eig.compute(spread, Eigen::EigenvaluesOnly);
+  if (eig.info() != Eigen::Success || !all_finite(eig.eigenvalues())) {
     out.status = Status::kIllConditioned;
     return;
   }
