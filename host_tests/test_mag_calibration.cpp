@@ -12,6 +12,8 @@
 #include "imucal/mag_calibration.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/mag_sim.hpp"
+#include "imucal/sim/random.hpp"
+#include "imucal/symmetric_eigen3.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {
@@ -546,6 +548,75 @@ TEST(MagCollector, ReplacementKeepsTheNearerToTheCellCentre) {
   cal.reset();
   EXPECT_EQ(cal.size(), 0);
   EXPECT_EQ(cal.raw_coverage(), 0.0);
+}
+
+// ---- The 3 x 3 symmetric eigen-solver (symmetric_eigen3.hpp) -----------------------------------
+
+// A = R diag(l) R^T with a random rotation R, in double; the solver's eigenvalues against l
+// (sorted) within `ulps` units in the last place of the largest, its vectors by A v = lambda v
+// and V^T V = I to the same order.
+template <typename Scalar>
+void expect_eigen_of(const Vector3<double>& l, sim::Random& rng, double ulps) {
+  Eigen::Quaterniond q = rng.normal_quaternion();
+  q.normalize();
+  const Matrix3<double> r = q.toRotationMatrix();
+  const Matrix3<double> a = r * l.asDiagonal() * r.transpose();
+  Vector3<Scalar> values;
+  Matrix3<Scalar> v;
+  ASSERT_TRUE(symmetric_eigen3<Scalar>(a.cast<Scalar>(), values, &v));
+  Vector3<double> sorted = l;
+  std::sort(sorted.data(), sorted.data() + 3);
+  const double eps = static_cast<double>(std::numeric_limits<Scalar>::epsilon());
+  const double tol = ulps * eps * l.cwiseAbs().maxCoeff();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(static_cast<double>(values(i)), sorted(i), tol) << i;
+  const Matrix3<double> vd = v.template cast<double>();
+  const Matrix3<double> residual = a * vd - vd * values.template cast<double>().asDiagonal();
+  EXPECT_LE(residual.cwiseAbs().maxCoeff(), tol);
+  EXPECT_LE((vd.transpose() * vd - Matrix3<double>::Identity()).cwiseAbs().maxCoeff(), ulps * eps);
+}
+
+TEST(SymmetricEigen3, RandomMatricesToAFewUlpsOfTheLargestEigenvalue) {
+  sim::Random rng(20261127);
+  for (int k = 0; k < 200; ++k) {
+    const Vector3<double> l = 10.0 * rng.normal3();
+    expect_eigen_of<double>(l, rng, 16.0);
+    expect_eigen_of<float>(l, rng, 16.0);
+  }
+}
+
+TEST(SymmetricEigen3, RepeatedSpreadAndSingularSpectra) {
+  sim::Random rng(7);
+  const Vector3<double> spectra[] = {
+      {2, 2, 2},        {1, 1, 3},    {-1, 4, 4},       {0, 0, 5},         {0, 0, 0},
+      {1e-6, 1.0, 1e6}, {-3, -2, -1}, {1, 1 + 1e-7, 2}, {1e-30, 1e-30, 1}, {5, 0, -5},
+  };
+  for (const Vector3<double>& l : spectra) {
+    expect_eigen_of<double>(l, rng, 16.0);
+    expect_eigen_of<float>(l, rng, 16.0);
+  }
+}
+
+TEST(SymmetricEigen3, ADiagonalMatrixIsSortedWithItsAxes) {
+  Matrix3<float> a = Vector3<float>(3.0f, -1.0f, 2.0f).asDiagonal();
+  Vector3<float> values;
+  Matrix3<float> v;
+  ASSERT_TRUE(symmetric_eigen3(a, values, &v));
+  EXPECT_EQ(values, Vector3<float>(-1.0f, 2.0f, 3.0f));
+  EXPECT_EQ(v.cwiseAbs(), (Matrix3<float>() << 0, 0, 1, 1, 0, 0, 0, 1, 0).finished());
+}
+
+TEST(SymmetricEigen3, ANonFiniteEntryIsRefusedAndNothingWritten) {
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity()};
+  for (const float x : bad) {
+    Matrix3<float> a = Matrix3<float>::Identity();
+    a(0, 2) = a(2, 0) = x;
+    Vector3<float> values(7.0f, 7.0f, 7.0f);
+    Matrix3<float> v = Matrix3<float>::Constant(7.0f);
+    EXPECT_FALSE(symmetric_eigen3(a, values, &v));
+    EXPECT_EQ(values, Vector3<float>(7.0f, 7.0f, 7.0f));
+    EXPECT_EQ(v, Matrix3<float>::Constant(7.0f));
+  }
 }
 
 }  // namespace

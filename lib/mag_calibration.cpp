@@ -3,7 +3,6 @@
 // Instantiated for float (device) and double (reference).
 #include "imucal/mag_calibration.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -11,6 +10,7 @@
 
 #include "imucal/elementary.hpp"
 #include "imucal/gyro_segment.hpp"  // rodrigues_coefficients, skew, rotation_exp
+#include "imucal/symmetric_eigen3.hpp"
 #include "quadric.hpp"
 
 namespace imucal {
@@ -99,12 +99,10 @@ Status fit_ellipsoid_sym(const MagProblem<Scalar>& prob, MagVector<Scalar>& p0) 
   Matrix3<Scalar> q;
   Vector3<Scalar> u;
   detail::quadric_from(MagVector<Scalar>(theta.template head<kMagParams>()), q, u);
-  Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
-  eig.compute(q);
-  if (eig.info() != Eigen::Success) return Status::kNotAnEllipsoid;
-  const Vector3<Scalar> l = eig.eigenvalues();  // ascending
+  Vector3<Scalar> l;  // ascending
+  Matrix3<Scalar> v;
+  if (!symmetric_eigen3(q, l, &v)) return Status::kNotAnEllipsoid;
   if (!all_finite(l) || !(l(0) > Scalar(0))) return Status::kNotAnEllipsoid;
-  const Matrix3<Scalar>& v = eig.eigenvectors();
   // Ellipsoid centre c = -Q^-1 u / 2; (x - c)^T Q (x - c) = r = 1 + c^T Q c.
   const Vector3<Scalar> vu = v.transpose() * u;
   Vector3<Scalar> vc;
@@ -325,9 +323,8 @@ Status mag_solve(const Vector3<Scalar>* samples, int n, const MagSettings<Scalar
   const Matrix3<Scalar> w = sym_matrix(p);
   const Vector3<Scalar> h(p(6), p(7), p(8));
   // The refinement may leave the ellipsoid (it never should near a closed-form start).
-  Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
-  eig.compute(w, Eigen::EigenvaluesOnly);
-  if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) > Scalar(0)))
+  Vector3<Scalar> w_values;
+  if (!symmetric_eigen3(w, w_values) || !(w_values(0) > Scalar(0)))
     return out.status = Status::kNotAnEllipsoid;
 
   // Diagnostics: field strength, fit error, coverage of the calibrated directions.

@@ -3,9 +3,10 @@
 // float (device) and double (reference).
 #include "imucal/temperature_fit.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <cmath>
+
+#include "imucal/symmetric_eigen3.hpp"
 
 namespace imucal {
 namespace {
@@ -257,15 +258,12 @@ void TemperatureFit<Scalar, MaxOrder>::solve_accel(const Sums<Order>& sums,
   for (int i = 0; i < 3; ++i) mean(i) = ne.h(i, kPhi) / (Scalar(2) * sum_w);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) spread(r, c) = ne.h(r, c) / (Scalar(4) * sum_w) - mean(r) * mean(c);
-  // The iterative solver, as the magnetometer's: computeDirect's closed form is less accurate
-  // for the smallest eigenvalue, and it links sinf, cosf and their argument reduction (5 KB).
-  Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>> eig;
-  eig.compute(spread, Eigen::EigenvaluesOnly);
-  if (eig.info() != Eigen::Success || !all_finite(eig.eigenvalues())) {
+  Vector3<Scalar> spread_values;  // ascending
+  if (!symmetric_eigen3(spread, spread_values)) {
     out.status = Status::kIllConditioned;
     return;
   }
-  if (eig.eigenvalues()(0) < kMinDirectionSpread<Scalar>) {
+  if (spread_values(0) < kMinDirectionSpread<Scalar>) {
     out.status = Status::kRankDeficient;
     return;
   }
