@@ -33,10 +33,10 @@ bool symmetric_eigen3(const Matrix3<Scalar>& a, Vector3<Scalar>& values,
     for (const auto& pair : kPairs) {
       const int p = pair[0], q = pair[1], k = 3 - p - q;
       const Scalar apq = m[p][q];
-      // Negligible against both diagonal entries: zero (it changes them by less than an ulp).
+      // Zero, or negligible against the diagonal entries: set to zero (the eigenvalues move by
+      // at most |apq|, half an ulp of the larger entry).
       const Scalar scale = std::abs(m[p][p]) + std::abs(m[q][q]);
-      if (std::abs(apq) <= std::numeric_limits<Scalar>::epsilon() * Scalar(0.5) * scale ||
-          apq == Scalar(0)) {
+      if (std::abs(apq) <= std::numeric_limits<Scalar>::epsilon() * Scalar(0.5) * scale) {
         m[p][q] = m[q][p] = Scalar(0);
         continue;
       }
