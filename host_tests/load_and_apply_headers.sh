@@ -7,7 +7,7 @@ eigen="$2"
 src="$3"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-printf '#include "imucal/corrector.hpp"\n#include "imucal/record_store.hpp"\nint main() { return 0; }\n' \
+printf '#include "imucal/corrector.hpp"\n#include "imucal/store/record_store.hpp"\nint main() { return 0; }\n' \
   >"$work/lap.cpp"
 if ! "$cxx" -std=c++17 -fsyntax-only -H -I"$src/include" -I"$src/ports/include" -isystem "$eigen" \
   "$work/lap.cpp" 2>"$work/headers.txt"; then

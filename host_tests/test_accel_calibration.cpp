@@ -11,8 +11,8 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/accel_calibration.hpp"
-#include "imucal/levenberg_marquardt.hpp"
+#include "imucal/solve/accel_calibration.hpp"
+#include "imucal/solve/levenberg_marquardt.hpp"
 #include "support/gtest_status.hpp"
 #include "support/sim_poses.hpp"
 

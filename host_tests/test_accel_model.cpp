@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "imucal/accel_model.hpp"
+#include "imucal/models/accel_model.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "support/gtest_status.hpp"
 

@@ -11,7 +11,7 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/allan.hpp"
+#include "imucal/noise/allan.hpp"
 #include "imucal/sim/random.hpp"
 #include "support/xsens_reader.hpp"
 

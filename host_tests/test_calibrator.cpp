@@ -8,7 +8,7 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "support/calibrator_sim.hpp"
 #include "support/gtest_status.hpp"

@@ -9,16 +9,16 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
-#include "imucal/calibrator/blocks.hpp"
-#include "imucal/calibrator/initial_rest.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/calibrator/move_store.hpp"
 #include "imucal/calibrator/pose_collection.hpp"
 #include "imucal/calibrator/solve_sequence.hpp"
-#include "imucal/calibrator/stream_checks.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/stream/blocks.hpp"
+#include "imucal/stream/checks.hpp"
+#include "imucal/stream/initial_rest.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

@@ -10,9 +10,9 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/gyro_model.hpp"
-#include "imucal/mag_model.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/models/mag_model.hpp"
 #include "imucal/sim/random.hpp"
 
 namespace imucal {

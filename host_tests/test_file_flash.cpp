@@ -5,7 +5,7 @@
 #include <cstdio>
 
 #include "file_flash.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/store/record_store.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

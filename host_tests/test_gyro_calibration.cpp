@@ -7,10 +7,10 @@
 #include <cstdio>
 #include <vector>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/gyro_calibration.hpp"
+#include "imucal/models/accel_model.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
 #include "support/gtest_status.hpp"
 #include "support/soft_float.hpp"
 

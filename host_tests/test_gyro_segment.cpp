@@ -9,9 +9,9 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
-#include "imucal/gyro_segment.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/stream/gyro_segment.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

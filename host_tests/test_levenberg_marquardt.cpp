@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <limits>
 
-#include "imucal/levenberg_marquardt.hpp"
+#include "imucal/solve/levenberg_marquardt.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

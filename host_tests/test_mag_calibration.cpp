@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <cstdio>
 
-#include "imucal/mag_calibration.hpp"
+#include "imucal/magnetometer/mag_calibration.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/mag_sim.hpp"
 #include "imucal/sim/random.hpp"
-#include "imucal/symmetric_eigen3.hpp"
+#include "imucal/solve/symmetric_eigen3.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

@@ -8,9 +8,9 @@
 #include <cmath>
 #include <limits>
 
-#include "imucal/ldlt.hpp"
-#include "imucal/normal_equations.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/solve/ldlt.hpp"
+#include "imucal/solve/normal_equations.hpp"
 #include "support/gtest_status.hpp"
 
 namespace {

@@ -12,9 +12,9 @@
 #include <functional>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
-#include "imucal/rest_monitor.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/sim/motion_sim.hpp"
+#include "imucal/stream/rest_monitor.hpp"
 #include "support/calibrator_sim.hpp"
 #include "support/sanitizers.hpp"
 #include "support/soft_float.hpp"

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <limits>
 
-#include "imucal/record.hpp"
+#include "imucal/store/record.hpp"
 #include "support/example_calibration.hpp"
 #include "support/gtest_status.hpp"
 

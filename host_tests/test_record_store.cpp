@@ -16,7 +16,7 @@
 
 #include "imucal/port/sim_ecc_flash.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/store/record_store.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

@@ -9,7 +9,7 @@
 #include <limits>
 
 #include "imucal/sim/random.hpp"
-#include "imucal/stillness.hpp"
+#include "imucal/stream/stillness.hpp"
 
 namespace imucal {
 namespace {

@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "support/calibrator_sim.hpp"
 #include "support/gtest_status.hpp"
 #include "support/sanitizers.hpp"

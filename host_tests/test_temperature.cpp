@@ -11,9 +11,9 @@
 #include <limits>
 #include <vector>
 
-#include "imucal/rest_monitor.hpp"
 #include "imucal/sim/temperature_sim.hpp"
-#include "imucal/temperature_fit.hpp"
+#include "imucal/stream/rest_monitor.hpp"
+#include "imucal/temperature/temperature_fit.hpp"
 #include "support/gtest_status.hpp"
 
 namespace imucal {

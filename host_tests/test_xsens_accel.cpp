@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "imucal/accel_calibration.hpp"
+#include "imucal/solve/accel_calibration.hpp"
 #include "support/gtest_status.hpp"
 #include "support/xsens_reader.hpp"
 

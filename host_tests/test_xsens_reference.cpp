@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "support/gtest_status.hpp"
 #include "support/reference_calibration.hpp"
 #include "support/xsens_reader.hpp"

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "support/gtest_status.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"

@@ -1,6 +1,6 @@
 // Accelerometer calibration: pose checks, closed-form ellipsoid start, normalised LM, and the
 // mapping back to sensor units. Instantiated for float (device) and double (reference).
-#include "imucal/accel_calibration.hpp"
+#include "imucal/solve/accel_calibration.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>

@@ -1,4 +1,4 @@
-#include "imucal/gyro_calibration.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
 
 namespace imucal {
 

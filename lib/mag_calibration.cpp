@@ -1,16 +1,16 @@
 // Magnetometer calibration: closed-form ellipsoid start, geometric Levenberg-Marquardt refinement
 // with sigmas, the coverage / field / fit checks, and the alignment to the accelerometer frame.
 // Instantiated for float (device) and double (reference).
-#include "imucal/mag_calibration.hpp"
+#include "imucal/magnetometer/mag_calibration.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
-#include "imucal/elementary.hpp"
-#include "imucal/gyro_segment.hpp"  // rodrigues_coefficients, skew, rotation_exp
-#include "imucal/symmetric_eigen3.hpp"
+#include "imucal/solve/elementary.hpp"
+#include "imucal/solve/symmetric_eigen3.hpp"
+#include "imucal/stream/gyro_segment.hpp"  // rodrigues_coefficients, skew, rotation_exp
 #include "quadric.hpp"
 
 namespace imucal {

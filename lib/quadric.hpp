@@ -5,7 +5,7 @@
 
 #include <Eigen/Core>
 
-#include "imucal/accel_model.hpp"
+#include "imucal/models/accel_model.hpp"
 
 namespace imucal::detail {
 

@@ -1,5 +1,6 @@
-// The calibration record's encoder and validating decoder (format: include/imucal/record.hpp).
-#include "imucal/record.hpp"
+// The calibration record's encoder and validating decoder (format:
+// include/imucal/store/record.hpp).
+#include "imucal/store/record.hpp"
 
 #include <Eigen/LU>  // determinant()
 #include <cmath>

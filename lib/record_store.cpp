@@ -1,5 +1,5 @@
-// The two-slot record store (include/imucal/record_store.hpp).
-#include "imucal/record_store.hpp"
+// The two-slot record store (include/imucal/store/record_store.hpp).
+#include "imucal/store/record_store.hpp"
 
 #include <cstring>
 

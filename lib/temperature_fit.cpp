@@ -1,12 +1,12 @@
 // Temperature model of the accelerometer's and gyro's added bias: fixed-memory accumulation of
 // rests and the linear solves (see temperature_fit.hpp for the equations). Instantiated for
 // float (device) and double (reference).
-#include "imucal/temperature_fit.hpp"
+#include "imucal/temperature/temperature_fit.hpp"
 
 #include <Eigen/LU>
 #include <cmath>
 
-#include "imucal/symmetric_eigen3.hpp"
+#include "imucal/solve/symmetric_eigen3.hpp"
 
 namespace imucal {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "cli.hpp"
 #include "imucal/corrector.hpp"
-#include "imucal/record.hpp"
+#include "imucal/store/record.hpp"
 
 namespace py = pybind11;
 

@@ -7,8 +7,8 @@
 
 #include "imucal/corrector.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
-#include "imucal/record.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/store/record.hpp"
+#include "imucal/store/record_store.hpp"
 #include "markers.hpp"
 
 using namespace imucal;

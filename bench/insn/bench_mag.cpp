@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 
-#include "imucal/mag_calibration.hpp"
+#include "imucal/magnetometer/mag_calibration.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/mag_sim.hpp"
 #include "markers.hpp"

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "markers.hpp"
 #include "stack_paint.hpp"
 #include "support/xsens_reader.hpp"

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/corrector.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/store/record_store.hpp"
 #include "simulated_imu.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 
 class SimulatedImu {
  public:

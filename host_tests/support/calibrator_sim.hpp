@@ -11,7 +11,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 #include "imucal/sim/motion_sim.hpp"
 
 namespace imucal::test {

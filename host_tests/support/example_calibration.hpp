@@ -3,9 +3,9 @@
 // record test's pinned version-1 bytes encode exactly this).
 #pragma once
 
-#include "imucal/calibrator.hpp"
-#include "imucal/mag_model.hpp"
-#include "imucal/temperature_model.hpp"
+#include "imucal/calibrator/calibrator.hpp"
+#include "imucal/models/mag_model.hpp"
+#include "imucal/models/temperature_model.hpp"
 
 namespace imucal::test {
 

@@ -13,8 +13,8 @@
 #include <cstddef>
 #include <vector>
 
-#include "imucal/accel_calibration.hpp"
-#include "imucal/gyro_model.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/solve/accel_calibration.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal::test {

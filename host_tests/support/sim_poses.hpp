@@ -4,8 +4,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "imucal/pose_store.hpp"
 #include "imucal/sim/accel_sim.hpp"
+#include "imucal/solve/pose_store.hpp"
 
 namespace imucal::test {
 

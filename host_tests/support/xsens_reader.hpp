@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "imucal/accel_model.hpp"
+#include "imucal/models/accel_model.hpp"
 
 namespace imucal::test {
 

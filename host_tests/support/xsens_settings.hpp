@@ -3,7 +3,7 @@
 // gravity; the detector's settings are the defaults).
 #pragma once
 
-#include "imucal/calibrator.hpp"
+#include "imucal/calibrator/calibrator.hpp"
 
 namespace imucal::test {
 

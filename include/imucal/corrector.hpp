@@ -33,14 +33,14 @@
 #include <atomic>
 #include <cstdint>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/calibration.hpp"
-#include "imucal/gyro_model.hpp"
-#include "imucal/mag_model.hpp"
-#include "imucal/plausibility.hpp"
-#include "imucal/record.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/calibration.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/models/mag_model.hpp"
+#include "imucal/models/plausibility.hpp"
+#include "imucal/models/temperature_model.hpp"
 #include "imucal/status.hpp"
-#include "imucal/temperature_model.hpp"
+#include "imucal/store/record.hpp"
 
 namespace imucal {
 
@@ -162,14 +162,14 @@ class Corrector {
   // non-finite offset (kImplausible, the previous biases kept).
   Status set_temperature(Scalar t) {
     if (!(parts_ & kRecordTemperature)) return Status::kNotStarted;
-    if (!bounds::finite(t)) return Status::kNonFiniteInput;
+    if (!all_finite(t)) return Status::kNonFiniteInput;
     const TemperatureModel<Scalar>& m = temperature_;
     t = t < m.min_c ? m.min_c : (t > m.max_c ? m.max_c : t);
     Vector3<Scalar> ca = acc_c_, cg = gyro_c_;
     if (succeeded(m.accel.status)) ca.noalias() = acc_m_ * m.accel.at(t, m.reference_c);
     if (succeeded(m.gyro.status)) cg.noalias() = gyro_m_ * m.gyro.at(t, m.reference_c);
-    if (!bounds::all_finite(ca)) return refuse(Bound::kAccelOffset);
-    if (!bounds::all_finite(cg)) return refuse(Bound::kGyroOffset);
+    if (!all_finite(ca)) return refuse(Bound::kAccelOffset);
+    if (!all_finite(cg)) return refuse(Bound::kGyroOffset);
     acc_c_ = ca;
     gyro_c_ = cg;
     temperature_c_ = t;

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 
-#include "imucal/port/flash_region.hpp"
+#include "imucal/store/flash_region.hpp"
 
 namespace imucal {
 

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "imucal/accel_calibration.hpp"
 #include "imucal/corrector.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/solve/accel_calibration.hpp"
+#include "imucal/store/record_store.hpp"
 
 namespace {
 imucal::SimNorFlash<8192, 4096, 256> flash;

@@ -16,8 +16,8 @@
 
 #include "imucal/port/sim_ecc_flash.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
-#include "imucal/record.hpp"
-#include "imucal/record_store.hpp"
+#include "imucal/store/record.hpp"
+#include "imucal/store/record_store.hpp"
 
 namespace {
 

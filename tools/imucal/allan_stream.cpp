@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "imucal/compensated_sum.hpp"
+#include "imucal/stream/compensated_sum.hpp"
 
 namespace imucal::cli {
 

@@ -1,20 +1,20 @@
 // tools/imucal/allan_stream.hpp: the overlapping Allan variance of a stream of any length in
 // bounded memory, one sample at a time (the host's `imucal noise`). Host only.
 //
-// The cluster sizes m are those of overlapping_allan (imucal/allan.hpp): log-spaced, `per_decade`
-// a decade, up to n / 10. Below 2L samples every start is used, exactly that estimator. From 2L
-// on, m is rounded to a multiple of b = 2^j with m / b in [L, 2L), and the starts are every b
-// samples: the cumulative sums are kept at every b-th sample only, a ring of 4L + 1 a level. The
-// clusters overlap by all but 1/L of their length, so the estimate and its degrees of freedom are
-// those of full overlap to a fraction of their interval. Memory: levels x 8L doubles x 3 axes
-// (under 2 MB for any length), whatever the number of samples.
+// The cluster sizes m are those of overlapping_allan (imucal/noise/allan.hpp): log-spaced,
+// `per_decade` a decade, up to n / 10. Below 2L samples every start is used, exactly that
+// estimator. From 2L on, m is rounded to a multiple of b = 2^j with m / b in [L, 2L), and the
+// starts are every b samples: the cumulative sums are kept at every b-th sample only, a ring of 4L
+// + 1 a level. The clusters overlap by all but 1/L of their length, so the estimate and its degrees
+// of freedom are those of full overlap to a fraction of their interval. Memory: levels x 8L doubles
+// x 3 axes (under 2 MB for any length), whatever the number of samples.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
-#include "imucal/allan.hpp"
+#include "imucal/noise/allan.hpp"
 
 namespace imucal::cli {
 

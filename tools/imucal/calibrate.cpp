@@ -13,10 +13,10 @@
 #include <utility>
 
 #include "cli.hpp"
-#include "imucal/calibrator.hpp"
-#include "imucal/mag_calibration.hpp"
-#include "imucal/record.hpp"
-#include "imucal/temperature_fit.hpp"
+#include "imucal/calibrator/calibrator.hpp"
+#include "imucal/magnetometer/mag_calibration.hpp"
+#include "imucal/store/record.hpp"
+#include "imucal/temperature/temperature_fit.hpp"
 #include "outputs.hpp"
 #include "sample_store.hpp"
 

@@ -92,7 +92,7 @@ Outputs:
   --header FILE                   a C/C++ header of constants for firmware (with IMUCAL_MAG_S,
                                   IMUCAL_MAG_H, IMUCAL_*_B_T for the usable mag/temperature parts)
   --record FILE                   the binary calibration record the firmware stores in flash
-                                  (imucal/record.hpp: little-endian floats, CRC-32; with the
+                                  (imucal/store/record.hpp: little-endian floats, CRC-32; with the
                                   magnetometer and temperature model when usable)
   --device-id N, --sensor-id N    the record's ids (unsigned 32-bit, decimal or 0x hex; default 0)
   --truth FILE                    compare with the truth file of `imucal simulate`

@@ -1,6 +1,6 @@
 // tools/imucal/noise.cpp: `imucal noise`: the noise of a still recording, per sensor and axis,
-// from its overlapping Allan deviation (imucal/allan.hpp): the fitted quantisation, white noise
-// (noise density), bias instability and random walk with their sigmas, the classic read-outs,
+// from its overlapping Allan deviation (imucal/noise/allan.hpp): the fitted quantisation, white
+// noise (noise density), bias instability and random walk with their sigmas, the classic read-outs,
 // and the numbers Kalibr's imu.yaml wants. The whole file is taken as one still recording.
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@
 
 #include "allan_stream.hpp"
 #include "cli.hpp"
-#include "imucal/allan.hpp"
+#include "imucal/noise/allan.hpp"
 #include "outputs.hpp"
 
 namespace imucal::cli {
@@ -200,7 +200,7 @@ std::string kalibr_yaml(const SensorNoise* gyro, const SensorNoise* acc, double 
   std::string y;
   std::snprintf(b, sizeof b,
                 "# imucal noise %s: %ld samples, %.1f s taken as still. Per sensor, the largest\n"
-                "# axis of the Allan deviation fit (imucal/allan.hpp).\n",
+                "# axis of the Allan deviation fit (imucal/noise/allan.hpp).\n",
                 file.c_str(), n, duration);
   y += b;
   auto entry = [&](const char* key, double v, double sigma, const char* unit, const char* note) {

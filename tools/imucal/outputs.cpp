@@ -21,9 +21,9 @@
 #include <vector>
 
 #include "cli.hpp"
-#include "imucal/accel_model.hpp"
-#include "imucal/gyro_model.hpp"
-#include "imucal/record.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/store/record.hpp"
 
 namespace imucal::cli {
 

@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "imucal/accel_model.hpp"
+#include "imucal/models/accel_model.hpp"
 #include "run.hpp"
 
 namespace imucal::cli::report {

@@ -11,9 +11,9 @@
 #include <cmath>
 #include <cstddef>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/gyro_calibration.hpp"
-#include "imucal/gyro_segment.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
+#include "imucal/stream/gyro_segment.hpp"
 
 namespace imucal {
 

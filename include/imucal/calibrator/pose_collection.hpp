@@ -8,9 +8,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "imucal/accel_model.hpp"
 #include "imucal/calibrator/settings.hpp"
-#include "imucal/pose_store.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/solve/pose_store.hpp"
 #include "imucal/status.hpp"
 
 namespace imucal {

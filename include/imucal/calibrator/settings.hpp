@@ -7,21 +7,13 @@
 #include <cstdint>
 #include <limits>
 
-#include "imucal/accel_calibration.hpp"
-#include "imucal/gyro_calibration.hpp"
+#include "imucal/solve/accel_calibration.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
 #include "imucal/status.hpp"
-#include "imucal/stillness.hpp"
+#include "imucal/stream/stillness.hpp"
+#include "imucal/types.hpp"
 
 namespace imucal {
-
-template <typename Scalar>
-struct ImuSample {
-  std::uint32_t t_us = 0;  // microseconds, wrapping (differences are taken modulo 2^32)
-  Vector3<Scalar> acc = Vector3<Scalar>::Zero();   // raw accelerometer (counts or m/s^2)
-  Vector3<Scalar> gyro = Vector3<Scalar>::Zero();  // raw gyroscope (counts or rad/s)
-  // deg C, NaN if the sensor has none: its mean goes into the calibration (and its record).
-  Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN();
-};
 
 template <typename Scalar>
 struct CalibratorSettings {

@@ -11,12 +11,12 @@
 #include <new>
 #include <type_traits>
 
-#include "imucal/accel_calibration.hpp"
-#include "imucal/calibration.hpp"
-#include "imucal/gyro_calibration.hpp"
-#include "imucal/gyro_segment.hpp"
-#include "imucal/pose_store.hpp"
+#include "imucal/models/calibration.hpp"
+#include "imucal/solve/accel_calibration.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
+#include "imucal/solve/pose_store.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stream/gyro_segment.hpp"
 
 namespace imucal {
 

@@ -17,7 +17,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "imucal/port/flash_region.hpp"
+#include "imucal/store/flash_region.hpp"
 
 namespace imucal {
 

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "imucal/accel_model.hpp"
+#include "imucal/models/accel_model.hpp"
 #include "imucal/sim/random.hpp"
 
 namespace imucal::sim {

@@ -17,8 +17,8 @@
 #include <Eigen/LU>
 #include <cmath>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/mag_model.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/mag_model.hpp"
 #include "imucal/sim/random.hpp"
 
 namespace imucal::sim {

@@ -22,11 +22,11 @@
 #include <functional>
 #include <vector>
 
-#include "imucal/accel_model.hpp"
-#include "imucal/gyro_model.hpp"
-#include "imucal/gyro_segment.hpp"  // rotation_exp: the same matrices as the calibrator's tests
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/stream/gyro_segment.hpp"  // rotation_exp: the same matrices as the calibrator's tests
 
 namespace imucal::sim {
 

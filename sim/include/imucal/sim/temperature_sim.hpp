@@ -16,14 +16,14 @@
 #include <cstdint>
 #include <vector>
 
-#include "imucal/accel_model.hpp"
 #include "imucal/calibrator/settings.hpp"
-#include "imucal/gyro_model.hpp"
-#include "imucal/gyro_segment.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/models/temperature_model.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "imucal/sim/random.hpp"
-#include "imucal/temperature_model.hpp"
+#include "imucal/stream/gyro_segment.hpp"
 
 namespace imucal::sim {
 

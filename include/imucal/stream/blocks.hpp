@@ -1,0 +1,161 @@
+// imucal/stream/blocks.hpp: the unit the calibrator sorts a stream into. A block is a short
+// run of consecutive samples, all still or all moving: its gyro statistics (a GyroSegment of
+// u = w + b0), its path angle, its acceleration sum and the detector's cues. Still blocks wait
+// in the delay line until enough stillness follows them to count as rest; a rest is blocks
+// appended together, and becomes a pose (its mean, its noise, its RestSummary). Header-only, no
+// allocation.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/temperature_model.hpp"
+#include "imucal/stream/compensated_sum.hpp"
+#include "imucal/stream/gyro_segment.hpp"
+
+namespace imucal {
+
+// The acceleration sum is re-centred: relative to acc_ref (the block's first raw reading), so
+// that the summands are noise-sized, and blocks are appended compensated (compensated_add): a
+// rest of hours keeps its mean exact (the 24-hour test in test_stream_faults.cpp holds float to
+// double).
+template <typename Scalar>
+struct SampleBlock {
+  GyroSegment<Scalar> seg{};
+  Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero();
+  Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
+  Vector3<Scalar> acc_comp = Vector3<Scalar>::Zero();    // low part: the sum is sum + comp
+  Scalar path = Scalar(0);                               // sum |u| dt
+  Scalar accel_cue = Scalar(0), energy_cue = Scalar(0);  // the detector's sample cues, summed
+  Scalar temp_sum = Scalar(0);  // temperatures relative to the stream's first one
+  std::uint32_t temp_n = 0;     // samples that carried a temperature
+  std::uint32_t n = 0;
+  std::uint32_t t_begin = 0;
+  std::uint32_t t_end = 0;
+  bool still = true;
+  bool long_enough = false;  // rests: lasted min_rest_seconds (sticky: the clock wraps)
+
+  // Empty, keeping acc_ref, t_begin and still (set again by the first sample).
+  void clear() {
+    seg = GyroSegment<Scalar>{};
+    acc_sum.setZero();
+    acc_comp.setZero();
+    path = Scalar(0);
+    accel_cue = energy_cue = Scalar(0);
+    temp_sum = Scalar(0);
+    temp_n = 0;
+    n = 0;
+    long_enough = false;
+  }
+
+  Vector3<Scalar> acc_mean() const {
+    return acc_ref + (acc_sum + acc_comp) / static_cast<Scalar>(n);
+  }
+
+  // The later block's samples follow this one's.
+  void append(const SampleBlock& later) {
+    seg.append(later.seg);
+    if (n == 0) {
+      acc_ref = later.acc_ref;
+      acc_sum = later.acc_sum;
+      acc_comp = later.acc_comp;
+    } else {
+      // The later block's sum moved to this reference (n (ref' - ref): exact for raw counts),
+      // added compensated.
+      const Vector3<Scalar> add =
+          later.acc_sum + later.acc_comp + static_cast<Scalar>(later.n) * (later.acc_ref - acc_ref);
+      for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), add(i));
+    }
+    path += later.path;
+    accel_cue += later.accel_cue;
+    energy_cue += later.energy_cue;
+    temp_sum += later.temp_sum;
+    temp_n += later.temp_n;
+    if (n == 0) t_begin = later.t_begin;
+    n += later.n;
+    t_end = later.t_end;
+  }
+
+  // As a pose's noise (Pose::noise): the variance of one sample on one axis, from the detector's
+  // accelerometer cue (each sample's squared deviation from the moving mean, over the three
+  // axes). With white noise of variance s^2 that deviation has variance s^2 (1 + w / (2 - w))
+  // per axis, w = dt / (seconds + dt) the weight of the moving mean of `seconds`. 0: unknown.
+  Scalar noise_variance(Scalar seconds) const {
+    const Scalar k = static_cast<Scalar>(n);
+    const Scalar dt = static_cast<Scalar>(t_end - t_begin) * Scalar(1e-6) / k;
+    const Scalar w = dt / (seconds + dt);
+    const Scalar noise = accel_cue / (Scalar(3) * k) * (Scalar(1) - w / Scalar(2));
+    return std::isfinite(noise) && noise > Scalar(0) ? noise : Scalar(0);
+  }
+
+  // As a RestSummary (for the temperature fit). The gyro mean comes from the segment statistics:
+  // alpha / duration is the time-weighted mean of u = w + b0. Samples not in the segment (the
+  // initial rest's) average u = 0 by definition of b0: dividing by the whole span counts them.
+  // (The span wraps after 71.6 min; the segment's duration does not.) temp_ref: what the
+  // temperatures are relative to.
+  RestSummary<Scalar> summary(const Vector3<Scalar>& b0, Scalar temp_ref) const {
+    RestSummary<Scalar> r;
+    r.accel_mean = acc_mean();
+    const Scalar span = static_cast<Scalar>(t_end - t_begin) * Scalar(1e-6);
+    const Scalar d = seg.duration > span ? seg.duration : span;
+    r.gyro_mean = d > Scalar(0) ? Vector3<Scalar>(seg.alpha / d - b0) : Vector3<Scalar>(-b0);
+    r.has_temperature = temp_n > 0;
+    r.temperature_c =
+        r.has_temperature ? temp_ref + temp_sum / static_cast<Scalar>(temp_n) : Scalar(0);
+    r.samples = n;
+    r.duration_s = d;
+    r.begin_us = t_begin;
+    r.end_us = t_end;
+    return r;
+  }
+};
+
+// The still blocks not yet known to be rest: a ring of N, oldest first. A block joins the rest
+// once enough stillness follows it; when motion comes, those still in the line go to the move.
+template <typename Scalar, int N>
+class DelayLine {
+ public:
+  static_assert(N >= 2, "delay line too short");
+  using Block = SampleBlock<Scalar>;
+
+  void clear() { count_ = 0; }
+  int size() const { return count_; }
+  bool empty() const { return count_ == 0; }
+  const Block& oldest() const { return line_[head_]; }
+  const Block& newest() const { return line_[(head_ + count_ - 1) % N]; }
+
+  // A full line (blocks cut short by the segment bounds) grows its newest block instead.
+  void add(const Block& b) {
+    if (count_ == N) {
+      line_[(head_ + count_ - 1) % N].append(b);
+      return;
+    }
+    line_[(head_ + count_) % N] = b;
+    ++count_;
+  }
+  void drop_oldest() {
+    head_ = (head_ + 1) % N;
+    --count_;
+  }
+  // How long the stillness after the oldest block has lasted (microseconds; 0 with one block).
+  std::uint32_t span_after_oldest() const {
+    if (count_ < 2) return 0;
+    return newest().t_end - oldest().t_end;
+  }
+  // Moves every block, oldest first, to f(block).
+  template <class F>
+  void drain(const F& f) {
+    while (count_ > 0) {
+      f(line_[head_]);
+      drop_oldest();
+    }
+  }
+
+ private:
+  Block line_[static_cast<std::size_t>(N)] = {};
+  int head_ = 0, count_ = 0;
+};
+
+}  // namespace imucal
