@@ -15,19 +15,6 @@
 
 namespace imucal {
 
-// One rest: mean raw readings, mean temperature and length. The streaming calibrator gives one
-// per pose (Calibrator::last_rest()); RestMonitor finds them in the field, after calibration.
-template <typename Scalar>
-struct RestSummary {
-  Vector3<Scalar> accel_mean = Vector3<Scalar>::Zero();  // raw units
-  Vector3<Scalar> gyro_mean = Vector3<Scalar>::Zero();   // raw units
-  Scalar temperature_c = Scalar(0);
-  bool has_temperature = false;
-  std::uint32_t samples = 0;
-  Scalar duration_s = Scalar(0);
-  std::uint32_t begin_us = 0, end_us = 0;  // timestamps of its first and last sample
-};
-
 template <typename Scalar>
 struct TemperatureBias {
   Vector3<Scalar> b0 = Vector3<Scalar>::Zero();  // bias at the reference temperature

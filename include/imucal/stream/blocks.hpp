@@ -11,9 +11,9 @@
 #include <cstdint>
 
 #include "imucal/models/accel_model.hpp"
-#include "imucal/models/temperature_model.hpp"
 #include "imucal/stream/compensated_sum.hpp"
 #include "imucal/stream/gyro_segment.hpp"
+#include "imucal/stream/rest_summary.hpp"
 
 namespace imucal {
 

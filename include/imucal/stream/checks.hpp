@@ -13,6 +13,23 @@
 
 namespace imucal {
 
+// What the stream did wrong, each counted by kind (Progress::stream). Samples refused are also
+// in Progress::samples_refused; what was collected before any of these is kept.
+struct StreamCounts {
+  std::uint32_t non_finite = 0;       // samples with a NaN or infinity: refused
+  std::uint32_t accel_saturated = 0;  // accelerometer at full scale: taken as motion
+  std::uint32_t gyro_saturated = 0;   // gyro at full scale: refused, the move in progress dropped
+  std::uint32_t frozen = 0;           // samples refused while a sensor repeated itself
+  std::uint32_t time_repeated = 0;    // same timestamp as the previous sample: refused
+  std::uint32_t time_backwards = 0;   // timestamp before the previous one: refused
+  std::uint32_t clock_resets = 0;     // the clock went back and stayed back: resynchronised
+  std::uint32_t gaps = 0;             // steps above the gap limit
+  std::uint32_t rate_off = 0;         // one-second windows with a rate far from nominal
+  std::uint32_t busy = 0;             // samples offered while solving or solved: refused
+  std::uint32_t glitches = 0;         // accelerometer readings far outside the running range
+  std::uint32_t temperature_bad = 0;  // temperatures not finite or out of range: ignored
+};
+
 // A sensor's full-scale limits [lo, hi] on every axis, tested first as a ball: centred in the
 // box, a radius a little inside its half-width, so that a reading in it is inside the limits on
 // every axis despite rounding (and NaN is never in it). Only a reading outside the ball is

@@ -53,6 +53,7 @@
 #include "imucal/models/temperature_model.hpp"
 #include "imucal/solve/normal_equations.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stream/rest_summary.hpp"
 
 namespace imucal {
 
