@@ -1031,18 +1031,9 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.moves_dropped = p.moves_dropped;
   run.faces = p.faces;
   run.faces_covered = p.faces_covered;
-  run.stream_counts = {{"non-finite", "non_finite", sc.non_finite},
-                       {"accel saturated", "accel_saturated", sc.accel_saturated},
-                       {"gyro saturated", "gyro_saturated", sc.gyro_saturated},
-                       {"frozen", "frozen", sc.frozen},
-                       {"repeated time", "time_repeated", sc.time_repeated},
-                       {"backwards time", "time_backwards", sc.time_backwards},
-                       {"clock resets", "clock_resets", sc.clock_resets},
-                       {"gaps", "gaps", sc.gaps},
-                       {"rate off", "rate_off", sc.rate_off},
-                       {"busy", "busy", sc.busy},
-                       {"accelerometer glitches (refused)", "glitches", sc.glitches},
-                       {"temperatures ignored", "temperature_bad", sc.temperature_bad}};
+  run.stream_counts.clear();
+  for (const StreamCountName& name : kStreamCountNames)
+    run.stream_counts.push_back({name.label, name.key, sc.*name.count});
   // A solve refused before the accelerometer started (too few poses) says so there.
   run.accel_status = to_string(c.accel.status == Status::kNotStarted ? solved : c.accel.status);
   run.accel_ok = succeeded(c.accel.status);

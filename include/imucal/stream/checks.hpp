@@ -30,6 +30,28 @@ struct StreamCounts {
   std::uint32_t temperature_bad = 0;  // temperatures not finite or out of range: ignored
 };
 
+// Each count's key (JSON, Python) and label (a person's summary), in the struct's order: the one
+// place these names are written.
+struct StreamCountName {
+  const char* key;
+  const char* label;
+  std::uint32_t StreamCounts::*count;
+};
+inline constexpr StreamCountName kStreamCountNames[] = {
+    {"non_finite", "non-finite", &StreamCounts::non_finite},
+    {"accel_saturated", "accel saturated", &StreamCounts::accel_saturated},
+    {"gyro_saturated", "gyro saturated", &StreamCounts::gyro_saturated},
+    {"frozen", "frozen", &StreamCounts::frozen},
+    {"time_repeated", "repeated time", &StreamCounts::time_repeated},
+    {"time_backwards", "backwards time", &StreamCounts::time_backwards},
+    {"clock_resets", "clock resets", &StreamCounts::clock_resets},
+    {"gaps", "gaps", &StreamCounts::gaps},
+    {"rate_off", "rate off", &StreamCounts::rate_off},
+    {"busy", "busy", &StreamCounts::busy},
+    {"glitches", "accelerometer glitches (refused)", &StreamCounts::glitches},
+    {"temperature_bad", "temperatures ignored", &StreamCounts::temperature_bad},
+};
+
 // A sensor's full-scale limits [lo, hi] on every axis, tested first as a ball: centred in the
 // box, a radius a little inside its half-width, so that a reading in it is inside the limits on
 // every axis despite rounding (and NaN is never in it). Only a reading outside the ball is
