@@ -205,7 +205,7 @@ TEST_F(StreamFaults, GyroSaturationDropsOnlyThatMove) {
     if (i >= a && i < a + 5) s.gyro(2) = 65535.0f;  // clipped for 50 ms of a fast turn
     return true;
   });
-  EXPECT_EQ(count(o.statuses, Status::kSaturated), 5);
+  EXPECT_EQ(count(o.statuses, Status::kGyroSaturated), 5);
   EXPECT_EQ(o.before_solve.stream.gyro_saturated, 5u);
   EXPECT_EQ(o.before_solve.samples_refused, 5u);
   EXPECT_EQ(o.before_solve.moves_dropped, 1);
@@ -224,7 +224,7 @@ TEST_F(StreamFaults, AccelSaturationCountsAsMotion) {
     if (i == b) s.acc(1) = 65535.0f;
     return true;
   });
-  EXPECT_EQ(count(o.statuses, Status::kSaturated), 5);
+  EXPECT_EQ(count(o.statuses, Status::kAccelSaturated), 5);
   EXPECT_EQ(o.before_solve.stream.accel_saturated, 5u);
   EXPECT_EQ(o.before_solve.samples_refused, 0u);
   EXPECT_EQ(o.before_solve.moves_dropped, 0);
@@ -335,13 +335,14 @@ TEST_F(StreamFaults, SampleRateFarFromNominalIsReported) {
 
 TEST_F(StreamFaults, FaultsDuringTheInitialRestRestartIt) {
   // A saturated accelerometer and a gyro at full scale early in the initial rest: it restarts
-  // (kSaturated), the calibration still succeeds from the samples after.
+  // (kAccelSaturated, kGyroSaturated), the calibration still succeeds from the samples after.
   const Outcome o = run(calibrator(), r(), [&](std::size_t i, ImuSample<float>& s, auto&) {
     if (i == 100) s.acc(2) = 65535.0f;
     if (i == 200) s.gyro(0) = 0.0f;
     return true;
   });
-  EXPECT_EQ(count(o.statuses, Status::kSaturated), 2);
+  EXPECT_EQ(count(o.statuses, Status::kAccelSaturated), 1);
+  EXPECT_EQ(count(o.statuses, Status::kGyroSaturated), 1);
   EXPECT_EQ(o.before_solve.stream.accel_saturated, 1u);
   EXPECT_EQ(o.before_solve.stream.gyro_saturated, 1u);
   expect_calibrated(o, r());

@@ -62,8 +62,8 @@ const char* to_string(Status s) {
       return "too few usable moves between poses";
     case Status::kBusy:
       return "busy solving (sample not taken)";
-    case Status::kSaturated:
-      return "reading at full scale (saturated)";
+    case Status::kAccelSaturated:
+      return "accelerometer at full scale (taken as motion)";
     case Status::kSampleRateOff:
       return "sample rate far from nominal";
     case Status::kRecordTruncated:
@@ -103,6 +103,8 @@ const char* to_string(Status s) {
       return "a reading far outside the sensor's running range (refused)";
     case Status::kTemperatureImplausible:
       return "temperature reading not finite or out of range (ignored)";
+    case Status::kGyroSaturated:
+      return "gyroscope at full scale (refused, the move in progress dropped)";
   }
   return "unknown status";
 }

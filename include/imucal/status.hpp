@@ -40,7 +40,7 @@ enum class Status : std::uint8_t {
   kEndedInMotion,         // the stream stopped during a move: that move is not used
   kTooFewMoves,           // fewer usable moves between poses than the gyro model needs
   kBusy,                  // the calibrator is solving: samples are not taken meanwhile
-  kSaturated,             // a reading at the configured full scale (see CalibratorSettings)
+  kAccelSaturated,        // the accelerometer at its full scale (StreamSettings): taken as motion
   kSampleRateOff,         // the measured sample rate is far from the nominal one (taken)
   // Stored calibration records (record.hpp) and the flash they live in (record_store.hpp).
   kRecordTruncated,      // fewer bytes than the record's length field says
@@ -63,6 +63,7 @@ enum class Status : std::uint8_t {
   // Stream (calibrator.hpp), continued.
   kGlitch,                  // a reading far outside its sensor's running range: refused
   kTemperatureImplausible,  // a temperature non-finite or out of range: ignored, sample taken
+  kGyroSaturated,           // the gyro at its full scale (StreamSettings): the sample is refused
 };
 
 // How far to trust a calibration, from its sigmas, residuals and coverage.

@@ -48,8 +48,7 @@ class MoveStore {
     moves_dropped_ = coarsenings_ = 0;
     last_mergeable_ = tail_only_ = false;
     rotation_.setZero();
-    seg_angle_ = max_angle;
-    set_error(max_error);
+    bounds_.set(max_angle, max_error);
   }
 
   // A rotation of `path` (its path angle) appended to the move in progress; nothing without one
@@ -57,10 +56,10 @@ class MoveStore {
   void add(const GyroSegment<Scalar>& seg, Scalar path) {
     if (chain_from_ < 0) return;
     tail_only_ = false;
-    if (last_mergeable_ && seg_count_ > move_first_ && last_path_ + path <= seg_angle_) {
+    if (last_mergeable_ && seg_count_ > move_first_ && last_path_ + path <= bounds_.max_angle) {
       GyroSegment<Scalar> merged = segments_[seg_count_ - 1];
       merged.append(seg);
-      if (merged.alpha.squaredNorm() * merged.beta.squaredNorm() <= seg_error2_) {
+      if (merged.alpha.squaredNorm() * merged.beta.squaredNorm() <= bounds_.max_error2) {
         segments_[seg_count_ - 1] = merged;
         last_path_ += path;
         return;
@@ -121,21 +120,10 @@ class MoveStore {
   // |alpha| per body axis, summed over the recorded moves (which axes were turned about).
   const Vector3<Scalar>& rotation() const { return rotation_; }
 
-  // The bounds a new segment is held to (they double with every coarsening): its path angle,
-  // the square of |alpha||beta|, and the path angle below which |alpha||beta| cannot reach its
-  // bound (|alpha| <= path and |beta| <= path^2 / 2, so |alpha||beta| <= path^3 / 2; 0.9^3 of
-  // it, a margin for rounding).
-  Scalar max_angle() const { return seg_angle_; }
-  Scalar max_error2() const { return seg_error2_; }
-  Scalar error_free_path() const { return seg_error_path_; }
+  // The bounds a new segment is held to (they double with every coarsening).
+  const SegmentBounds<Scalar>& bounds() const { return bounds_; }
 
  private:
-  void set_error(Scalar e) {
-    seg_error_ = e;
-    seg_error2_ = e * e;
-    seg_error_path_ = Scalar(0.9) * std::cbrt(Scalar(2) * e);
-  }
-
   // A new segment at the end of the store, coarsening it when full; false (the move dropped)
   // when nothing is left to merge (one segment per move everywhere).
   bool store(const GyroSegment<Scalar>& seg) {
@@ -156,12 +144,12 @@ class MoveStore {
   // coarsening often.
   void coarsen() {
     const int wanted = MaxSegments / 8 > 0 ? MaxSegments / 8 : 1;
-    Scalar tau = seg_error_;
+    Scalar tau = bounds_.max_error;
     for (int attempt = 0; attempt < 40 && merge_pass(tau, false) < wanted; ++attempt)
       tau *= Scalar(2);
     merge_pass(tau, true);
-    seg_angle_ *= Scalar(2);
-    set_error(Scalar(2) * seg_error_);
+    bounds_.max_angle *= Scalar(2);
+    bounds_.set_error(Scalar(2) * bounds_.max_error);
     last_mergeable_ = false;
     ++coarsenings_;
   }
@@ -213,8 +201,7 @@ class MoveStore {
   int move_first_ = 0;   // its first segment
   int moves_dropped_ = 0, coarsenings_ = 0;
   Scalar last_path_ = Scalar(0);  // the path angle of the newest segment
-  Scalar seg_angle_ = Scalar(0), seg_error_ = Scalar(0), seg_error2_ = Scalar(0);
-  Scalar seg_error_path_ = Scalar(0);
+  SegmentBounds<Scalar> bounds_{};
   Vector3<Scalar> rotation_ = Vector3<Scalar>::Zero();
   bool last_mergeable_ = false;  // the newest segment may grow
   bool tail_only_ = false;       // the move in progress holds only its pose's rest half so far

@@ -16,8 +16,10 @@
 
 namespace imucal {
 
+// The calibrator's settings: the stream checks' (StreamSettings, checks.hpp: gaps, frozen
+// sensors, full scale, temperature range, nominal rate, whether there is a gyro) and its own.
 template <typename Scalar>
-struct CalibratorSettings {
+struct CalibratorSettings : StreamSettings<Scalar> {
   // The initial rest is the first still period of at least this long (however long it then
   // lasts, until the first motion): the gyro bias to start from, the noise that sets the first
   // thresholds, the sample period.
@@ -27,34 +29,13 @@ struct CalibratorSettings {
   Scalar min_rest_seconds = Scalar(0.6);
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
   StillnessSettings<Scalar> stillness{};  // the detector (stillness.hpp)
-  // false: the stream carries no gyro (its readings are ignored): stillness from the
-  // accelerometer alone, the solve ends after the accelerometer.
-  bool has_gyro = true;
   Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
-  Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
-  Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period (initial rest too)
-  Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
-  // Temperature readings outside this range (deg C), or not finite (NaN means "no sensor"), are
-  // ignored and counted; the sample is taken.
-  Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
   // After the initial rest, an accelerometer reading (not at full scale) further than this many
   // noise sigmas (the initial rest's, its noisiest axis) from the moving mean (the distance over
   // the three axes) is a glitch: refused and counted.
   // 1e5 sigma is 100 g or more for any MEMS accelerometer's noise: a value no sensor reads (an
   // ADC's own limit is far inside for 16-bit counts).
   Scalar glitch_sigma = Scalar(1e5);
-  // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
-  // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
-  // the range in SI units). The defaults only refuse readings too large for the float sums.
-  Scalar accel_min = Scalar(-1e15), accel_max = Scalar(1e15);
-  Scalar gyro_min = Scalar(-1e15), gyro_max = Scalar(1e15);
-  // The sample rate the sensor is configured for (0: not checked). Over every second of the
-  // stream, a measured rate further than rate_tolerance (relative) from it is reported.
-  Scalar nominal_rate_hz = Scalar(0);
-  Scalar rate_tolerance = Scalar(0.1);
-  // This many consecutive samples behind the clock, in order among themselves: the clock was
-  // reset (the stream restarts as after a gap) rather than a few bad timestamps.
-  int clock_reset_samples = 3;
   // Segments (math.md section 4): path angle and |alpha||beta| (rad^3) bounds. The defaults keep
   // the second-order expansion within ~7e-5 rad on a 3 s coning move (test_gyro_segment); 3e-4
   // gives ~1e-5 rad for ~35 % more segments (on the xsens recording: 0.04 instead of 0.10 sigma

@@ -14,6 +14,7 @@
 #include "imucal/stream/compensated_sum.hpp"
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/stream/rest_summary.hpp"
+#include "imucal/stream/ring.hpp"
 
 namespace imucal {
 
@@ -120,42 +121,39 @@ class DelayLine {
   static_assert(N >= 2, "delay line too short");
   using Block = SampleBlock<Scalar>;
 
-  void clear() { count_ = 0; }
-  int size() const { return count_; }
-  bool empty() const { return count_ == 0; }
-  const Block& oldest() const { return line_[head_]; }
-  const Block& newest() const { return line_[(head_ + count_ - 1) % N]; }
+  void clear() { line_.clear(); }
+  int size() const { return line_.size(); }
+  bool empty() const { return line_.empty(); }
+  const Block& oldest() const { return line_.oldest(); }
+  const Block& newest() const { return line_.newest(); }
 
   // A full line (blocks cut short by the segment bounds) grows its newest block instead.
   void add(const Block& b) {
-    if (count_ == N) {
-      line_[(head_ + count_ - 1) % N].append(b);
+    if (line_.full()) {
+      line_.newest().append(b);
       return;
     }
-    line_[(head_ + count_) % N] = b;
-    ++count_;
+    line_.push(b);
   }
-  void drop_oldest() {
-    head_ = (head_ + 1) % N;
-    --count_;
-  }
+  void drop_oldest() { line_.pop(); }
   // How long the stillness after the oldest block has lasted (microseconds; 0 with one block).
   std::uint32_t span_after_oldest() const {
-    if (count_ < 2) return 0;
+    if (line_.size() < 2) return 0;
     return newest().t_end - oldest().t_end;
+  }
+  // f(block) for every block, oldest first.
+  template <class F>
+  void for_each(const F& f) {
+    for (int k = 0; k < line_.size(); ++k) f(line_.at(k));
   }
   // Moves every block, oldest first, to f(block).
   template <class F>
   void drain(const F& f) {
-    while (count_ > 0) {
-      f(line_[head_]);
-      drop_oldest();
-    }
+    line_.drain(f);
   }
 
  private:
-  Block line_[static_cast<std::size_t>(N)] = {};
-  int head_ = 0, count_ = 0;
+  Ring<Block, N> line_{};
 };
 
 }  // namespace imucal

@@ -1,15 +1,19 @@
-// imucal/stream/checks.hpp: the checks every raw sample passes before the calibrator
-// uses it: readings inside the full scale, a clock that went back and stayed back, the sample
-// rate against the nominal one, and the running mean of the temperature. Each is a few bytes of
-// state and a few instructions a sample. Header-only, no allocation.
+// imucal/stream/checks.hpp: the checks every raw sample passes before anything uses it, and the
+// front end that runs them (StreamChecks): readings finite and inside the full scale, timestamps
+// in order, a clock that went back and stayed back, gaps, a frozen sensor, the sample rate
+// against the nominal one, the temperature's range and running mean. Each check is a few bytes
+// of state and a few instructions a sample. Every calibrator and the rest monitor take their
+// samples through it, so every bad sample gets the same status and count everywhere.
+// Header-only, no allocation.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 #include <limits>
 
-#include "imucal/models/accel_model.hpp"
+#include "imucal/status.hpp"
 #include "imucal/stream/compensated_sum.hpp"
+#include "imucal/types.hpp"
 
 namespace imucal {
 
@@ -177,6 +181,278 @@ class TemperatureMean {
  private:
   Scalar ref_ = Scalar(0), sum_ = Scalar(0), comp_ = Scalar(0);
   std::uint32_t n_ = 0;
+};
+
+// The front end's settings: what a sample must be to be taken. Every limit in raw units or
+// seconds.
+template <typename Scalar>
+struct StreamSettings {
+  // false: the stream carries no gyro (its readings are ignored).
+  bool has_gyro = true;
+  Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
+  Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period
+  Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
+  // Temperature readings outside this range (deg C), or not finite (NaN means "no sensor"), are
+  // ignored and counted; the sample is taken.
+  Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
+  // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
+  // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
+  // the range in SI units). The defaults only refuse readings too large for the float sums.
+  Scalar accel_min = Scalar(-1e15), accel_max = Scalar(1e15);
+  Scalar gyro_min = Scalar(-1e15), gyro_max = Scalar(1e15);
+  // The sample rate the sensor is configured for (0: not checked). Over every second of the
+  // stream, a measured rate further than rate_tolerance (relative) from it is reported.
+  Scalar nominal_rate_hz = Scalar(0);
+  Scalar rate_tolerance = Scalar(0.1);
+  // This many consecutive samples behind the clock, in order among themselves: the clock was
+  // reset (the stream restarts as after a gap) rather than a few bad timestamps.
+  int clock_reset_samples = 3;
+
+  bool valid() const {
+    return gap_factor > Scalar(1) && max_step_seconds > Scalar(0) &&
+           // Durations become microseconds in uint32: keep them far from 2^32 us (71 min).
+           max_step_seconds <= Scalar(600) && frozen_seconds > Scalar(0) &&
+           temperature_min_c < temperature_max_c && clock_reset_samples >= 1 &&
+           !(accel_min != accel_min) && !(accel_max != accel_max) && !(gyro_min != gyro_min) &&
+           !(gyro_max != gyro_max) && nominal_rate_hz >= Scalar(0) && rate_tolerance > Scalar(0);
+  }
+};
+
+// Whether the front end let a sample through: kOk, or one of its notes (the sample is taken
+// with it). Every other status it returns is a refusal.
+constexpr bool sample_taken(Status s) {
+  return s == Status::kOk || s == Status::kTimestampGap || s == Status::kClockReset ||
+         s == Status::kAccelSaturated || s == Status::kSampleRateOff ||
+         s == Status::kTemperatureImplausible;
+}
+
+// What the front end made of a sample it let through.
+template <typename Scalar>
+struct CheckedSample {
+  Scalar dt = Scalar(0);  // seconds since the previous sample taken (0: the stream starts here)
+  Scalar temperature = Scalar(0);  // deg C; NaN: none, or ignored as implausible
+  bool acc_saturated = false;      // the accelerometer at full scale: the sample says no rest
+};
+
+// The front end. check() passes or refuses each sample and tells the consumer (a sink with two
+// calls) when the stream was cut: sink.stream_cut() before a sample that cannot be joined to the
+// one before it (a gap, a clock reset, a gyro at full scale: nothing may be integrated across),
+// sink.sensor_froze() when a sensor starts repeating itself (what came since it froze is
+// suspect). A sample the consumer then takes is remembered with accept(); one it refuses
+// (a glitch) with refuse().
+template <typename Scalar>
+class StreamChecks {
+ public:
+  // Starts again with new settings (settings that are not valid() make check() refuse every
+  // sample with kInvalidArgument). gap_us: the largest step that is not a gap.
+  void reset(const StreamSettings<Scalar>& s) {
+    has_gyro_ = s.has_gyro;
+    valid_ = s.valid();
+    frozen_seconds_ = s.frozen_seconds;
+    temperature_min_ = s.temperature_min_c;
+    temperature_max_ = s.temperature_max_c;
+    nominal_rate_ = s.nominal_rate_hz;
+    rate_tolerance_ = s.rate_tolerance;
+    clock_reset_samples_ = s.clock_reset_samples;
+    acc_scale_.set(s.accel_min, s.accel_max);
+    gyro_scale_.set(s.gyro_min, s.gyro_max);
+    have_prev_ = false;
+    restart_ = true;
+    frozen_ = false;
+    frozen_time_ = Scalar(0);
+    t_prev_ = 0;
+    acc_prev_.setZero();
+    gyro_prev_.setZero();
+    clock_.reset();
+    rate_.restart();
+    temperature_.reset();
+    counts_ = StreamCounts{};
+    refused_ = 0;
+    last_event_ = Status::kOk;
+  }
+
+  // The largest step that is not a gap, in microseconds (the consumer sets it from the period).
+  void set_gap_limit(std::uint32_t us) { gap_us_ = us; }
+  std::uint32_t gap_limit() const { return gap_us_; }
+
+  // One sample. Taken (out filled; the consumer then accepts or refuses it): kOk, or a note:
+  // kTimestampGap, kClockReset, kAccelSaturated, kSampleRateOff, kTemperatureImplausible.
+  // Refused (nothing of the consumer's changes, but the sink calls): kInvalidArgument,
+  // kNonFiniteInput, kTimeRepeated, kTimeBackwards, kSensorFrozen, kGyroSaturated.
+  template <class Sink>
+  Status check(const ImuSample<Scalar>& s, Sink& sink, CheckedSample<Scalar>& out) {
+    if (!valid_) return refuse(Status::kInvalidArgument);
+    // Every reading finite and inside its full scale: one test per sensor on the usual path
+    // (inside a ball within the box of the limits; NaN fails it), exact tests only outside it.
+    bool gyro_saturated = false, acc_saturated = false;
+    if (!(acc_scale_.in_ball(s.acc) && gyro_scale_.in_ball(s.gyro))) {
+      // x - x is 0 for a finite x and NaN otherwise.
+      const Scalar nan_if_any = (s.acc - s.acc).sum() + (s.gyro - s.gyro).sum();
+      if (!(nan_if_any == Scalar(0))) {
+        ++counts_.non_finite;
+        return refuse(Status::kNonFiniteInput);
+      }
+      gyro_saturated = gyro_scale_.outside(s.gyro);
+      acc_saturated = acc_scale_.outside(s.acc);
+    }
+    std::int32_t step = 0;
+    Status result = Status::kOk;
+    if (have_prev_) {
+      step = static_cast<std::int32_t>(s.t_us - t_prev_);
+      if (step == 0) {
+        ++counts_.time_repeated;
+        return refuse(Status::kTimeRepeated);
+      }
+      if (step < 0) {
+        result = behind_clock(s.t_us, sink);
+        if (result != Status::kClockReset) return result;
+      }
+    }
+    clock_.in_order();
+    Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
+    // Frozen: either sensor's reading the same as its previous one for frozen_seconds.
+    if (have_prev_ && !restart_ &&
+        (same_reading(s.acc, acc_prev_) || (has_gyro_ && same_reading(s.gyro, gyro_prev_)))) {
+      frozen_time_ += dt;
+      t_prev_ = s.t_us;
+      if (frozen_time_ >= frozen_seconds_) {
+        if (!frozen_) {
+          last_event_ = Status::kSensorFrozen;
+          sink.sensor_froze();
+        }
+        frozen_ = true;
+        ++counts_.frozen;
+        ++refused_;
+        return Status::kSensorFrozen;
+      }
+    } else if (frozen_time_ > Scalar(0)) {
+      frozen_time_ = Scalar(0);
+      if (frozen_) {
+        frozen_ = false;
+        restart_ = true;  // the stream starts again after the frozen spell
+      }
+    }
+    if (gyro_saturated) return gyro_at_full_scale(s, sink);
+    if (!restart_ && static_cast<std::uint32_t>(step) > gap_us_) {
+      ++counts_.gaps;
+      sink.stream_cut();
+      result = last_event_ = Status::kTimestampGap;
+      restart_ = true;
+    }
+    if (restart_) {  // first sample after a start, a gap or a reset: no interval
+      dt = Scalar(0);
+      step = 0;
+      restart_ = false;
+      rate_.restart();
+    }
+    Scalar temperature = s.temperature;
+    if (temperature == temperature) {  // NaN: no temperature sensor
+      if (temperature >= temperature_min_ && temperature <= temperature_max_) {
+        temperature_.add(temperature);
+      } else {
+        ++counts_.temperature_bad;
+        temperature = std::numeric_limits<Scalar>::quiet_NaN();
+        if (result == Status::kOk) result = last_event_ = Status::kTemperatureImplausible;
+      }
+    }
+    if (acc_saturated) {
+      ++counts_.accel_saturated;
+      result = last_event_ = Status::kAccelSaturated;
+    }
+    if (nominal_rate_ > Scalar(0) &&
+        rate_.off(static_cast<std::uint32_t>(step), nominal_rate_, rate_tolerance_)) {
+      ++counts_.rate_off;
+      last_event_ = Status::kSampleRateOff;
+      if (result == Status::kOk) result = Status::kSampleRateOff;
+    }
+    out.dt = dt;
+    out.temperature = temperature;
+    out.acc_saturated = acc_saturated;
+    return result;
+  }
+
+  // The sample check() let through was taken: the next is ordered against it.
+  void accept(const ImuSample<Scalar>& s) {
+    acc_prev_ = s.acc;
+    gyro_prev_ = s.gyro;
+    t_prev_ = s.t_us;
+    have_prev_ = true;
+  }
+
+  // A sample refused by the consumer (counted in refused()); returns s.
+  Status refuse(Status s) {
+    ++refused_;
+    return s;
+  }
+  // The consumer's own refusals that the counts name.
+  Status refuse_glitch() {
+    ++counts_.glitches;
+    last_event_ = Status::kGlitch;
+    return refuse(Status::kGlitch);
+  }
+  Status refuse_busy() {
+    ++counts_.busy;
+    return refuse(Status::kBusy);
+  }
+
+  // The next sample starts the stream again (no interval to the one before).
+  void restart() { restart_ = true; }
+  // The latest notable event of the stream (the consumer's own too, through note()).
+  Status last_event() const { return last_event_; }
+  Status note(Status s) { return last_event_ = s; }
+
+  const StreamCounts& counts() const { return counts_; }
+  std::uint32_t refused() const { return refused_; }
+  bool frozen() const { return frozen_; }
+  // The running mean of the temperatures taken (TemperatureMean: sums elsewhere are relative
+  // to its ref()).
+  const TemperatureMean<Scalar>& temperature() const { return temperature_; }
+
+ private:
+  // A timestamp behind the clock: refused (kTimeBackwards), or the clock was reset (kClockReset:
+  // the sample starts the stream again, as after a gap). Out of line, as every rare path.
+  template <class Sink>
+  __attribute__((noinline)) Status behind_clock(std::uint32_t t_us, Sink& sink) {
+    if (!clock_.went_back(t_us, gap_us_, clock_reset_samples_)) {
+      ++counts_.time_backwards;
+      return refuse(Status::kTimeBackwards);
+    }
+    ++counts_.clock_resets;
+    sink.stream_cut();
+    restart_ = true;
+    return last_event_ = Status::kClockReset;
+  }
+
+  // A gyro at full scale: the rotation over this interval is unknown, nothing can be integrated
+  // across it. Refused; it is the sample the next is ordered against.
+  template <class Sink>
+  __attribute__((noinline)) Status gyro_at_full_scale(const ImuSample<Scalar>& s, Sink& sink) {
+    accept(s);
+    ++counts_.gyro_saturated;
+    if (!restart_) sink.stream_cut();
+    restart_ = true;
+    last_event_ = Status::kGyroSaturated;
+    return refuse(Status::kGyroSaturated);
+  }
+
+  bool valid_ = false;
+  bool has_gyro_ = true;
+  bool have_prev_ = false;  // t_prev_ holds a time to order against
+  bool restart_ = true;     // the next sample taken starts the stream (no interval)
+  bool frozen_ = false;
+  std::uint32_t t_prev_ = 0, gap_us_ = 0;
+  Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();
+  FullScale<Scalar> acc_scale_{}, gyro_scale_{};
+  Scalar frozen_time_ = Scalar(0), frozen_seconds_ = Scalar(0);
+  Scalar temperature_min_ = Scalar(0), temperature_max_ = Scalar(0);
+  Scalar nominal_rate_ = Scalar(0), rate_tolerance_ = Scalar(0);
+  int clock_reset_samples_ = 3;
+  ClockResetWatch clock_{};
+  RateWatch rate_{};
+  TemperatureMean<Scalar> temperature_{};
+  StreamCounts counts_{};
+  std::uint32_t refused_ = 0;
+  Status last_event_ = Status::kOk;
 };
 
 }  // namespace imucal

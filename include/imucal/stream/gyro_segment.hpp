@@ -53,6 +53,12 @@ struct GyroSegment {
     duration += later.duration;
   }
 
+  // The same samples with db added to every rate (exact: gamma does not change).
+  void add_bias(const Vector3<Scalar>& db) {
+    beta += gamma.cross(db);
+    alpha += duration * db;
+  }
+
   // The segment's rotation vector for the model w_cal = M (w_raw + b), to second order
   // (Magnus/BCH): Omega = M alpha_b + 1/2 cof(M) beta_b with alpha_b = alpha + T b and
   // beta_b = B + C x b (exact: the b x b terms vanish), cof(M) = det(M) M^-T.
@@ -69,6 +75,25 @@ struct GyroSegment {
     c.col(1) = m.col(2).cross(m.col(0));
     c.col(2) = m.col(0).cross(m.col(1));
     return c;  // det(M) M^-T, without dividing by det(M)
+  }
+};
+
+// The bounds a new segment is held to: its path angle, the square of |alpha||beta|, and the path
+// angle below which |alpha||beta| cannot reach its bound (|alpha| <= path and |beta| <= path^2 /
+// 2, so |alpha||beta| <= path^3 / 2; 0.9^3 of it, a margin for rounding).
+template <typename Scalar>
+struct SegmentBounds {
+  Scalar max_angle = Scalar(0), max_error = Scalar(0), max_error2 = Scalar(0);
+  Scalar error_free_path = Scalar(0);
+
+  void set(Scalar angle, Scalar error) {
+    max_angle = angle;
+    set_error(error);
+  }
+  void set_error(Scalar e) {
+    max_error = e;
+    max_error2 = e * e;
+    error_free_path = Scalar(0.9) * std::cbrt(Scalar(2) * e);
   }
 };
 

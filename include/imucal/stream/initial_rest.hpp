@@ -10,6 +10,7 @@
 
 #include "imucal/models/accel_model.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stream/ring.hpp"
 
 namespace imucal {
 
@@ -34,7 +35,7 @@ class InitialRestWindow {
   // Seconds covered so far (for the progress report).
   Scalar elapsed() const {
     Scalar e = cur_.elapsed;
-    for (int k = 0; k < count_; ++k) e += q_[(head_ + k) % 4].elapsed;
+    for (int k = 0; k < quarters_.size(); ++k) e += quarters_.at(k).elapsed;
     return e;
   }
 
@@ -49,7 +50,7 @@ class InitialRestWindow {
       c.acc_ref = acc;
       c.gyro_ref = gyro;
       c.t_begin = t_us;
-      dt = count_ == 0 ? Scalar(0) : dt;  // the window's span starts at its first sample
+      dt = quarters_.empty() ? Scalar(0) : dt;  // the window's span starts at its first sample
     }
     c.elapsed += dt;
     const Vector3<Scalar> a = acc - c.acc_ref, g = gyro - c.gyro_ref;
@@ -119,18 +120,13 @@ class InitialRestWindow {
     }
   };
 
-  const Quarter& at(int k) const { return q_[(head_ + k) % 4]; }
+  const Quarter& at(int k) const { return quarters_.at(k); }
 
   // The quarter is complete: into the ring (the oldest slides out), then the window's test.
   Status close_quarter(bool use_gyro) {
-    if (count_ == 4) {
-      head_ = (head_ + 1) % 4;
-      --count_;
-    }
-    q_[(head_ + count_) % 4] = Quarter(cur_);
-    ++count_;
+    quarters_.push(Quarter(cur_));
     cur_ = QuarterSums{};
-    if (count_ < 4) return Status::kRunning;
+    if (!quarters_.full()) return Status::kRunning;
     return test(use_gyro);
   }
 
@@ -182,9 +178,8 @@ class InitialRestWindow {
     return Status::kOk;
   }
 
-  Quarter q_[4] = {};  // the last four complete quarters: a ring
-  QuarterSums cur_{};  // the one filling
-  int head_ = 0, count_ = 0;
+  Ring<Quarter, 4> quarters_{};  // the last four complete quarters
+  QuarterSums cur_{};            // the one filling
 };
 
 }  // namespace imucal
