@@ -550,6 +550,63 @@ TEST(MagCollector, ReplacementKeepsTheNearerToTheCellCentre) {
   EXPECT_EQ(cal.raw_coverage(), 0.0);
 }
 
+// One wild reading (a saturated 16-bit read: 32767 counts on x) does not poison the collector:
+// it is refused as a glitch (kGlitch, counted), neither widens the box nor is held, and the
+// collection goes on to a fit within 3 sigma. Before any sample is held the box starts again
+// from a glitch (the wild one may have come first), which costs at most the reading after it.
+TEST(MagCollector, OneWildReadingDoesNotPoisonTheCollector) {
+  const MagSensorSpec spec = MagSensorSpec::counts();
+  for (const int where : {0, 1, 2000}) {
+    sim::Random rng(57);
+    const MagTruth t = sim::draw_mag_truth(spec, rng);
+    static MagCalibrator<float> cal;
+    cal.reset(settings_for<float>(spec));
+    HandRotation hand(HandRotation::Options{}, sim::mag_world(t), rng);
+    int refused = 0;
+    for (int k = 0; k < kStream; ++k) {
+      const Vector3<float> raw = sim::raw_mag(t, hand.next(), spec.noise, rng).cast<float>();
+      if (k == where) {
+        const int held = cal.size();
+        const Vector3<float> last = held > 0 ? cal.sample(held - 1) : Vector3<float>::Zero();
+        const Status st = cal.add(Vector3<float>(32767.0f, raw(1), raw(2)));
+        if (where > 0) {
+          EXPECT_EQ(st, Status::kGlitch) << where;
+        }
+        refused += st == Status::kGlitch ? 1 : 0;
+        ASSERT_EQ(cal.size(), held) << where;
+        if (held > 0) {
+          EXPECT_EQ(cal.sample(held - 1), last) << where;
+        }
+      }
+      const Status st = cal.add(raw);
+      if (st == Status::kGlitch) {
+        ++refused;
+        EXPECT_LT(k, 3) << where;
+      } else {
+        ASSERT_EQ(st, Status::kOk) << where << " at " << k;
+      }
+    }
+    EXPECT_EQ(refused, where == 1 ? 2 : 1) << where;  // the second: its reading and the next
+    EXPECT_EQ(cal.glitches(), static_cast<std::uint32_t>(refused)) << where;
+    MagCalibration<float> c;
+    const Status s = cal.solve(c);
+    ASSERT_TRUE(succeeded(s)) << to_string(s) << ", coverage " << cal.raw_coverage() << ", where "
+                              << where;
+    double z[9];
+    z_scores(c, t, z);
+    expect_within_3_sigma(z, "after a wild reading");
+    EXPECT_GE(static_cast<double>(c.coverage), 0.8);
+  }
+  // reset() forgets the count.
+  static MagCalibrator<float> cal;
+  cal.reset(settings_for<float>(spec));
+  ASSERT_EQ(cal.add(Vector3<float>(100.0f, 0.0f, 0.0f)), Status::kOk);
+  EXPECT_EQ(cal.add(Vector3<float>(32767.0f, 0.0f, 0.0f)), Status::kGlitch);
+  EXPECT_EQ(cal.glitches(), 1u);
+  cal.reset();
+  EXPECT_EQ(cal.glitches(), 0u);
+}
+
 // ---- The 3 x 3 symmetric eigen-solver (symmetric_eigen3.hpp) -----------------------------------
 
 // A = R diag(l) R^T with a random rotation R, in double; the solver's eigenvalues against l
