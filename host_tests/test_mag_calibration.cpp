@@ -278,6 +278,18 @@ TEST(MagCalibration, FieldImplausibleRefused) {
   const Status again =
       mag_solve(&cal.sample(0), cal.size(), settings_for<float>(spec), 4, cal.raw_coverage(), c);
   EXPECT_TRUE(succeeded(again)) << to_string(again);
+  // A unit 1000x too large (readings in nT taken as uT): the field is 3 field_max_ut within a few
+  // readings, every turn after is a glitch and few samples are held; still the field's fault.
+  wrong.unit_ut = 1000.0f * static_cast<float>(spec.unit_ut);
+  cal.reset(wrong);
+  HandRotation hand(HandRotation::Options{}, sim::mag_world(t), rng);
+  for (int k = 0; k < kStream; ++k) {
+    const Status st = cal.add(sim::raw_mag(t, hand.next(), spec.noise, rng).cast<float>());
+    ASSERT_TRUE(st == Status::kOk || st == Status::kGlitch) << to_string(st);
+  }
+  EXPECT_GT(cal.glitches(), static_cast<std::uint32_t>(cal.size()));
+  EXPECT_EQ(cal.solve(c), Status::kFieldImplausible);
+  EXPECT_EQ(c.status, Status::kFieldImplausible);
 }
 
 TEST(MagCalibration, NonFiniteRefusedNothingLost) {

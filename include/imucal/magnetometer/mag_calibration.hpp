@@ -233,7 +233,10 @@ class MagCalibrator {
   // were computed (samples, iterations, coverage, field_ut, fit_error_pct) are filled, so the
   // reason can be seen; when no fit exists, coverage is raw_coverage(). Quality on success:
   // kGood if coverage >= 0.8 and fit error <= 1.5 %, kFair if coverage >= 0.65 and fit error
-  // <= 3 %, else kPoor. Never NaN. The alignment fields are reset (kNotStarted).
+  // <= 3 %, else kPoor. Never NaN. The alignment fields are reset (kNotStarted). A fit refused
+  // (other than for invalid settings) while more readings were refused as glitches than samples
+  // are held is kFieldImplausible: the readings show a field beyond 3 field_max_ut (a wrong
+  // unit_ut, or a magnet near the sensor), whatever the few samples held lack.
   Status solve(MagCalibration<Scalar>& out) const;
 
   // Optional: rotates a usable calibration into the accelerometer's frame, from the rests (>= 5,
@@ -303,7 +306,10 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
 
 template <typename Scalar, int CellsPerEdge, int MaxRests>
 Status MagCalibrator<Scalar, CellsPerEdge, MaxRests>::solve(MagCalibration<Scalar>& out) const {
-  return mag_solve(samples_, size_, settings_, CellsPerEdge, raw_coverage(), out);
+  const Status s = mag_solve(samples_, size_, settings_, CellsPerEdge, raw_coverage(), out);
+  if (!succeeded(s) && s != Status::kInvalidArgument && glitches_ > std::uint32_t(size_))
+    return out.status = Status::kFieldImplausible;
+  return s;
 }
 
 template <typename Scalar, int CellsPerEdge, int MaxRests>
