@@ -118,9 +118,9 @@ inline int mag_cell(const Vector3<Scalar>& d, int n, Scalar& u, Scalar& v) {
 // recomputed only when the min/max box grows.
 //
 // Glitches: a reading that would stretch the box, on its longest side, beyond 3 field strengths
-// in raw units (3 field_max_ut / unit_ut: the field's diameter is 2) and beyond twice its extent
-// so far (a box grown on a wrong unit still grows with the turning) is a wild one, e.g. a
-// saturated read (32767 counts): refused (kGlitch) and counted (glitches()), the box and the
+// in raw units (3 field_max_ut / unit_ut; an undistorted sensor's readings span 2) and beyond twice
+// its extent so far (a box grown on a wrong unit still grows with the turning) is a wild one, e.g.
+// a saturated read (32767 counts): refused (kGlitch) and counted (glitches()), the box and the
 // samples held unchanged. Until a sample is held, a glitch starts the box again from that reading
 // instead (the wild reading may have been the first).
 //
@@ -285,7 +285,7 @@ class MagCalibrator {
   Vector3<Scalar> min_ = Vector3<Scalar>::Zero(), max_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> centre_ = Vector3<Scalar>::Zero();  // midpoint of min_ and max_
   Scalar near2_ = Scalar(0);  // squared distance from the centre below which nothing is held
-  std::int16_t size_ = 0;     // 16 bits each: glitches_ fits the room of two ints
+  std::int16_t size_ = 0;     // 16 bits each (kCells, MaxRests): room for glitches_
   std::int16_t rests_ = 0;
   std::uint32_t glitches_ = 0;
   std::int16_t slot_[static_cast<std::size_t>(kCells)];  // index into samples_, -1: empty
