@@ -119,10 +119,11 @@ inline int mag_cell(const Vector3<Scalar>& d, int n, Scalar& u, Scalar& v) {
 //
 // Glitches: a reading that would stretch the box, on its longest side, beyond 3 field strengths
 // in raw units (3 field_max_ut / unit_ut; an undistorted sensor's readings span 2) and beyond twice
-// its extent so far (a box grown on a wrong unit still grows with the turning) is a wild one, e.g.
-// a saturated read (32767 counts): refused (kGlitch) and counted (glitches()), the box and the
-// samples held unchanged. Until a sample is held, a glitch starts the box again from that reading
-// instead (the wild reading may have been the first).
+// its extent so far (so the box still grows with the turning under a unit_ut 30 times too large;
+// beyond, readings turn into glitches and solve() says kFieldImplausible) is a wild
+// one, e.g. a saturated read (32767 counts): refused (kGlitch) and counted (glitches()), the box
+// and the samples held unchanged. Until a sample is held, a glitch starts the box again from that
+// reading instead (the wild reading may have been the first).
 //
 // solve() fits all the samples held, whatever centre they were binned about.
 template <typename Scalar, int CellsPerEdge = 4, int MaxRests = 32>
