@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <limits>
 #include <vector>
 
@@ -373,22 +374,21 @@ TEST(AllanAccumulator, FloatKeepsPrecisionOnRawCounts) {
   }
 }
 
-TEST(AllanAccumulator, NonFiniteRefusedNothingLost) {
+// Bad readings among 5000 good ones, `bad` after every 997th, are refused with `why` and change
+// nothing: every result as without them, and finite.
+void expect_refused_nothing_lost(std::initializer_list<Vector3<float>> bad, Status why) {
   const double density[3] = {1.0, 1.0, 1.0};
   const Series s = white(5000, density, 100.0, 71);
   static AllanAccumulator<float, 8> a, b;
   ASSERT_EQ(a.start(0.01f), Status::kOk);
   ASSERT_EQ(b.start(0.01f), Status::kOk);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  const float inf = std::numeric_limits<float>::infinity();
   for (std::size_t i = 0; i < s.n(); ++i) {
     const Vector3<float> x(static_cast<float>(s.v[3 * i]), static_cast<float>(s.v[3 * i + 1]),
                            static_cast<float>(s.v[3 * i + 2]));
     ASSERT_EQ(a.add(x), Status::kOk);
     ASSERT_EQ(b.add(x), Status::kOk);
     if (i % 997 == 0) {
-      EXPECT_EQ(b.add(Vector3<float>(1.0f, nan, 2.0f)), Status::kNonFiniteInput);
-      EXPECT_EQ(b.add(Vector3<float>(inf, 1.0f, 2.0f)), Status::kNonFiniteInput);
+      for (const Vector3<float>& v : bad) EXPECT_EQ(b.add(v), why) << v.transpose();
     }
   }
   EXPECT_EQ(a.samples(), b.samples());
@@ -397,8 +397,50 @@ TEST(AllanAccumulator, NonFiniteRefusedNothingLost) {
     ASSERT_EQ(a.result(k, pa), Status::kOk);
     ASSERT_EQ(b.result(k, pb), Status::kOk);
     EXPECT_EQ(pa.count, pb.count);
-    for (int x = 0; x < 3; ++x) EXPECT_EQ(pa.avar(x), pb.avar(x));
+    for (int x = 0; x < 3; ++x) {
+      EXPECT_EQ(pa.avar(x), pb.avar(x));
+      EXPECT_TRUE(std::isfinite(pb.adev_lo(x)) && std::isfinite(pb.adev_hi(x)));
+    }
   }
+}
+
+TEST(AllanAccumulator, NonFiniteRefusedNothingLost) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  expect_refused_nothing_lost({{1.0f, nan, 2.0f}, {inf, 1.0f, 2.0f}}, Status::kNonFiniteInput);
+}
+
+// A finite reading far from the others (float squares overflow above ~1.8e19; a difference of
+// two finite readings can overflow too) is refused as a glitch and changes nothing, so no result
+// is ever NaN or infinite; the overlapping estimate refuses such samples the same way.
+TEST(AllanAccumulator, WildFiniteReadingRefusedNothingLost) {
+  expect_refused_nothing_lost({{1.0f, 2e19f, 2.0f}, {-3e38f, 1.0f, 2.0f}, {1.0f, 2.0f, 1.1e12f}},
+                              Status::kGlitch);
+  // Readings up to 1e12 from the first, just within: every result finite, in float.
+  static AllanAccumulator<float, 8> c;
+  ASSERT_EQ(c.start(0.01f), Status::kOk);
+  for (int i = 0; i < 4000; ++i) {
+    const float v = (i * 7919) % 3 == 1 ? 0.999e12f : (i % 2 == 1 ? -0.999e12f : 0.0f);
+    ASSERT_EQ(c.add(Vector3<float>(v, 0.0f, -v)), Status::kOk) << i;
+  }
+  for (int k = 0; k < 8; ++k) {
+    AllanPoint<float> p;
+    ASSERT_EQ(c.result(k, p), Status::kOk);
+    for (int x = 0; x < 3; ++x) {
+      EXPECT_TRUE(std::isfinite(p.avar(x)) && std::isfinite(p.edf(x))) << k;
+      EXPECT_TRUE(std::isfinite(p.adev_lo(x)) && std::isfinite(p.adev_hi(x))) << k;
+    }
+  }
+  // The overlapping estimate: one wild sample among 5000 is refused, nothing written.
+  const double density[3] = {1.0, 1.0, 1.0};
+  const Series s = white(5000, density, 100.0, 73);
+  std::vector<float> v(3 * 5000, 100.0f);
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(s.v[i]);
+  v[3 * 2500 + 1] = 2e19f;
+  static AllanPoint<float> pts[kCapacity];
+  int n_out = -1;
+  EXPECT_EQ(overlapping_allan(v.data(), 5000, 3, 0.01f, 8, pts, kCapacity, n_out), Status::kGlitch);
+  EXPECT_EQ(n_out, 0);
 }
 
 TEST(AllanAccumulator, TooFewSamplesGivesNoValue) {

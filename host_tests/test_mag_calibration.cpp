@@ -278,6 +278,18 @@ TEST(MagCalibration, FieldImplausibleRefused) {
   const Status again =
       mag_solve(&cal.sample(0), cal.size(), settings_for<float>(spec), 4, cal.raw_coverage(), c);
   EXPECT_TRUE(succeeded(again)) << to_string(again);
+  // A unit 1000x too large (readings in nT taken as uT): the field is 3 field_max_ut within a few
+  // readings, every turn after is a glitch and few samples are held; still the field's fault.
+  wrong.unit_ut = 1000.0f * static_cast<float>(spec.unit_ut);
+  cal.reset(wrong);
+  HandRotation hand(HandRotation::Options{}, sim::mag_world(t), rng);
+  for (int k = 0; k < kStream; ++k) {
+    const Status st = cal.add(sim::raw_mag(t, hand.next(), spec.noise, rng).cast<float>());
+    ASSERT_TRUE(st == Status::kOk || st == Status::kGlitch) << to_string(st);
+  }
+  EXPECT_GT(cal.glitches(), static_cast<std::uint32_t>(cal.size()));
+  EXPECT_EQ(cal.solve(c), Status::kFieldImplausible);
+  EXPECT_EQ(c.status, Status::kFieldImplausible);
 }
 
 TEST(MagCalibration, NonFiniteRefusedNothingLost) {
@@ -548,6 +560,63 @@ TEST(MagCollector, ReplacementKeepsTheNearerToTheCellCentre) {
   cal.reset();
   EXPECT_EQ(cal.size(), 0);
   EXPECT_EQ(cal.raw_coverage(), 0.0);
+}
+
+// One wild reading (a saturated 16-bit read: 32767 counts on x) does not poison the collector:
+// it is refused as a glitch (kGlitch, counted), neither widens the box nor is held, and the
+// collection goes on to a fit within 3 sigma. Before any sample is held the box starts again
+// from a glitch (the wild one may have come first), which costs at most the reading after it.
+TEST(MagCollector, OneWildReadingDoesNotPoisonTheCollector) {
+  const MagSensorSpec spec = MagSensorSpec::counts();
+  for (const int where : {0, 1, 2000}) {
+    sim::Random rng(57);
+    const MagTruth t = sim::draw_mag_truth(spec, rng);
+    static MagCalibrator<float> cal;
+    cal.reset(settings_for<float>(spec));
+    HandRotation hand(HandRotation::Options{}, sim::mag_world(t), rng);
+    int refused = 0;
+    for (int k = 0; k < kStream; ++k) {
+      const Vector3<float> raw = sim::raw_mag(t, hand.next(), spec.noise, rng).cast<float>();
+      if (k == where) {
+        const int held = cal.size();
+        const Vector3<float> last = held > 0 ? cal.sample(held - 1) : Vector3<float>::Zero();
+        const Status st = cal.add(Vector3<float>(32767.0f, raw(1), raw(2)));
+        if (where > 0) {
+          EXPECT_EQ(st, Status::kGlitch) << where;
+        }
+        refused += st == Status::kGlitch ? 1 : 0;
+        ASSERT_EQ(cal.size(), held) << where;
+        if (held > 0) {
+          EXPECT_EQ(cal.sample(held - 1), last) << where;
+        }
+      }
+      const Status st = cal.add(raw);
+      if (st == Status::kGlitch) {
+        ++refused;
+        EXPECT_LT(k, 3) << where;
+      } else {
+        ASSERT_EQ(st, Status::kOk) << where << " at " << k;
+      }
+    }
+    EXPECT_EQ(refused, where == 1 ? 2 : 1) << where;  // the second: its reading and the next
+    EXPECT_EQ(cal.glitches(), static_cast<std::uint32_t>(refused)) << where;
+    MagCalibration<float> c;
+    const Status s = cal.solve(c);
+    ASSERT_TRUE(succeeded(s)) << to_string(s) << ", coverage " << cal.raw_coverage() << ", where "
+                              << where;
+    double z[9];
+    z_scores(c, t, z);
+    expect_within_3_sigma(z, "after a wild reading");
+    EXPECT_GE(static_cast<double>(c.coverage), 0.8);
+  }
+  // reset() forgets the count.
+  static MagCalibrator<float> cal;
+  cal.reset(settings_for<float>(spec));
+  ASSERT_EQ(cal.add(Vector3<float>(100.0f, 0.0f, 0.0f)), Status::kOk);
+  EXPECT_EQ(cal.add(Vector3<float>(32767.0f, 0.0f, 0.0f)), Status::kGlitch);
+  EXPECT_EQ(cal.glitches(), 1u);
+  cal.reset();
+  EXPECT_EQ(cal.glitches(), 0u);
 }
 
 // ---- The 3 x 3 symmetric eigen-solver (symmetric_eigen3.hpp) -----------------------------------

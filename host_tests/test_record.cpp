@@ -6,8 +6,10 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <limits>
 
+#include "imucal/corrector.hpp"
 #include "imucal/store/record.hpp"
 #include "support/example_calibration.hpp"
 #include "support/gtest_status.hpp"
@@ -521,8 +523,14 @@ TEST(RecordPlausibility, AbsurdFiniteValuesAreRefusedEverywhere) {
     k.edit(c, t, m);
     CalibrationRecord r;
     Bound bound = Bound::kNone;
-    EXPECT_EQ(make_record(c, 1, 2, r, &m, &t, &bound), Status::kImplausible) << k.what;
+    // A temperature model out of bounds costs only itself (ABadTemperatureModelCostsOnlyItself).
+    const bool model = k.section == 344;
+    EXPECT_EQ(make_record(c, 1, 2, r, &m, &t, &bound), model ? Status::kOk : Status::kImplausible)
+        << k.what;
     EXPECT_EQ(bound, k.bound) << k.what << ": " << to_string(bound);
+    if (model) {
+      EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro | kRecordMag) << k.what;
+    }
     // The same value in a record built by hand: encode refuses it.
     CalibrationRecord good = full_record(1);
     CalibrationRecord bad = good;
@@ -587,6 +595,139 @@ TEST(RecordPlausibility, AnAbsurdTemperatureNoteIsDroppedNotTheCalibration) {
   ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk);
   EXPECT_TRUE(r.calibration.has_temperature);
   EXPECT_EQ(r.calibration.temperature_c, 199.0f);
+}
+
+// The sections of an encoded record with the given tags, under the parts field `parts`: bytes a
+// hand-made (or an older) encoder could have written.
+Encoded with_sections(const Encoded& e, std::initializer_list<int> tags, std::uint16_t parts) {
+  Encoded out;
+  std::memcpy(out.bytes, e.bytes, kRecordHeaderBytes);
+  out.size = kRecordHeaderBytes;
+  for (std::size_t at = kRecordHeaderBytes; at + 4 < e.size;) {
+    const std::size_t n = 4 + (e.bytes[at + 2] | std::size_t{e.bytes[at + 3]} << 8);
+    for (int tag : tags) {
+      if (e.bytes[at] != tag) continue;
+      std::memcpy(out.bytes + out.size, e.bytes + at, n);
+      out.size += n;
+    }
+    at += n;
+  }
+  out.size += 4;
+  out.bytes[6] = static_cast<std::uint8_t>(out.size & 0xFF);
+  out.bytes[7] = static_cast<std::uint8_t>(out.size >> 8);
+  out.bytes[16] = static_cast<std::uint8_t>(parts & 0xFF);
+  out.bytes[17] = static_cast<std::uint8_t>(parts >> 8);
+  reseal(out);
+  return out;
+}
+
+// A temperature model's coefficients are bounded through their sensor's matrix, and the
+// corrector applies them only to a sensor it calibrates: a model is part of a record only beside
+// a sensor it models. A temperature model alone (its slope of 1e38 would meet no bound) is
+// refused by make, encode and decode alike; the coefficients of a sensor the record does not hold
+// are left out. Whatever they accept, the corrector accepts.
+TEST(RecordPlausibility, ATemperatureModelGoesOnlyWithItsSensor) {
+  const MagCalibration<double>* const kNoMag = nullptr;
+  TemperatureModel<double> t = example_temperature(1);
+  t.accel.b1(0) = 1e38;
+  Calibration<double> none = example_calibration();
+  none.accel.status = Status::kTooFewPoses;
+  none.gyro.status = Status::kTooFewMoves;
+  CalibrationRecord r;
+  EXPECT_EQ(make_record(none, 1, 2, r, kNoMag, &t), Status::kInvalidArgument);
+  CalibrationRecord alone = full_record(1);
+  alone.parts = kRecordTemperature;
+  alone.calibration.accel = AccelCalibration<float>{};
+  alone.calibration.gyro = GyroCalibration<float>{};
+  alone.temperature.accel.b1(0) = 1e38f;
+  std::uint8_t buf[kRecordMaxBytes];
+  std::size_t n = 0;
+  EXPECT_EQ(encode_record(alone, buf, sizeof buf, &n), Status::kInvalidArgument);
+  // Its bytes: the info section (payload at 24) and the temperature section (payload at 40: the
+  // flags at 41, the accelerometer's b1 x at 68) of a full record.
+  const Encoded full = encode(full_record(1));
+  Encoded bytes = with_sections(full, {1, 5}, kRecordTemperature);
+  put_f32(bytes, 68, 1e38f);
+  CalibrationRecord out;
+  std::size_t where = 0;
+  EXPECT_EQ(decode_record(bytes.bytes, bytes.size, out, &where), Status::kRecordBadField);
+  EXPECT_EQ(where, 41u);
+
+  // The gyro alone with a model of both sensors: the model keeps the gyro's coefficients only.
+  Calibration<double> gyro = example_calibration();
+  gyro.accel.status = Status::kTooFewPoses;
+  ASSERT_EQ(make_record(gyro, 1, 2, r, kNoMag, &t), Status::kOk);
+  EXPECT_EQ(r.parts, kRecordGyro | kRecordTemperature);
+  EXPECT_FALSE(succeeded(r.temperature.accel.status));
+  EXPECT_TRUE(r.temperature.accel.b1.isZero(0.0f));
+  EXPECT_EQ(r.temperature.gyro.b1, t.gyro.b1.cast<float>());
+  const Encoded e = encode(r);
+  ASSERT_EQ(decode_record(e.bytes, e.size, out), Status::kOk);
+  expect_same(r, out);
+  Corrector<float> corrector;
+  EXPECT_EQ(corrector.set(out), Status::kOk);
+  EXPECT_EQ(corrector.parts(), kRecordGyro | kRecordTemperature);
+  // By hand, with the accelerometer's coefficients: encode refuses it.
+  CalibrationRecord stray = r;
+  stray.temperature.accel = alone.temperature.accel;
+  EXPECT_EQ(encode_record(stray, buf, sizeof buf, &n), Status::kInvalidArgument);
+  // The bytes of such a record (flags 3, parts gyro and temperature: gyro section at 36,
+  // temperature payload at 148, the accelerometer's b1 x at 176) decode without them.
+  Encoded older = with_sections(full, {1, 3, 5}, kRecordGyro | kRecordTemperature);
+  put_f32(older, 176, 1e38f);
+  ASSERT_EQ(decode_record(older.bytes, older.size, out), Status::kOk);
+  EXPECT_EQ(out.parts, kRecordGyro | kRecordTemperature);
+  EXPECT_FALSE(succeeded(out.temperature.accel.status));
+  EXPECT_TRUE(out.temperature.accel.b1.isZero(0.0f));
+  EXPECT_TRUE(succeeded(out.temperature.gyro.status));
+  EXPECT_EQ(corrector.set(out), Status::kOk);
+  EXPECT_EQ(corrector.parts(), kRecordGyro | kRecordTemperature);
+}
+
+// A temperature model that cannot be recorded costs only itself: make_record() leaves it out,
+// keeps the accelerometer, the gyro and the magnetometer, and *bound names the bound it broke
+// (a range from -300 degC: the fit's rests are checked too, TemperatureFit.ImplausibleRest...).
+TEST(RecordPlausibility, ABadTemperatureModelCostsOnlyItself) {
+  struct Case {
+    const char* what;
+    void (*edit)(TemperatureModel<double>&);
+    Bound bound;
+  };
+  const Case cases[] = {
+      {"range from -300 degC", [](auto& t) { t.min_c = -300; }, Bound::kTemperature},
+      {"range up to 1e30 degC", [](auto& t) { t.max_c = 1e30; }, Bound::kTemperature},
+      {"reference 1e30 degC", [](auto& t) { t.reference_c = 1e30; }, Bound::kTemperature},
+      {"accel slope 1e38", [](auto& t) { t.accel.b1(0) = 1e38; }, Bound::kAccelSlope},
+      {"gyro slope 1e5 counts/degC", [](auto& t) { t.gyro.b1(2) = 1e5; }, Bound::kGyroSlope},
+      {"accel b0 NaN", [](auto& t) { t.accel.b0(1) = std::nan(""); }, Bound::kNonFinite},
+      {"gyro b1 1e300 (infinite in float)", [](auto& t) { t.gyro.b1(0) = 1e300; },
+       Bound::kNonFinite},
+  };
+  const MagCalibration<double> m = example_mag();
+  for (const Case& k : cases) {
+    TemperatureModel<double> t = example_temperature(1);
+    k.edit(t);
+    CalibrationRecord r;
+    Bound bound = Bound::kNone;
+    ASSERT_EQ(make_record(example_calibration(), 1, 2, r, &m, &t, &bound), Status::kOk) << k.what;
+    EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro | kRecordMag) << k.what;
+    EXPECT_EQ(bound, k.bound) << k.what << ": " << to_string(bound);
+    const Encoded e = encode(r);
+    CalibrationRecord back;
+    ASSERT_EQ(decode_record(e.bytes, e.size, back), Status::kOk) << k.what;
+    Corrector<float> corrector;
+    EXPECT_EQ(corrector.set(back), Status::kOk) << k.what;
+  }
+  // A good model goes in, *bound kNone; one kept up to date in the field for years (more rests
+  // than the record's 16 bits count) goes in with its count saturated.
+  TemperatureModel<double> t = example_temperature(1);
+  t.rests = 100000;
+  CalibrationRecord r;
+  Bound bound = Bound::kAccelSlope;
+  ASSERT_EQ(make_record(example_calibration(), 1, 2, r, &m, &t, &bound), Status::kOk);
+  EXPECT_EQ(r.parts, kRecordAccel | kRecordGyro | kRecordMag | kRecordTemperature);
+  EXPECT_EQ(bound, Bound::kNone);
+  EXPECT_EQ(r.temperature.rests, 65535);
 }
 
 }  // namespace

@@ -527,5 +527,53 @@ TEST(TemperatureEndToEnd, MonitorThenFit) {
   std::printf("[ end to end ] worst |z| %.2f\n", worst);
 }
 
+// ---- Temperatures outside the record's bounds ----
+
+// A rest at -300 degC (a broken or unconnected sensor's reading) is refused and changes
+// nothing: the model's range stays within the temperatures a record holds (-100..200 degC,
+// plausibility.hpp), so the accelerometer and gyro calibration it goes with can be saved. A
+// reference temperature outside them is refused at reset. The bounds themselves are taken.
+template <typename S>
+void implausible_temperatures() {
+  const auto truth = draw_truth(1, 1500);
+  const Calibration<S> base = cast_base<S>(sim::base_calibration(truth));
+  const RestList rests = draw_rests(truth, 30, 1501);
+  TemperatureFit<S> f;
+  ASSERT_EQ(f.reset(base), Status::kOk);
+  for (const auto& r : rests) ASSERT_EQ(f.add_rest(cast_rest<S>(r)), Status::kOk);
+  TemperatureModel<S> before, after;
+  ASSERT_EQ(f.solve(before), Status::kOk);
+  const S min_before = f.min_c(), max_before = f.max_c();
+  for (const double t : {-300.0, -100.5, 200.5, 1e30, -1e30}) {
+    RestSummary<S> r = cast_rest<S>(rests[3]);
+    r.temperature_c = static_cast<S>(t);
+    EXPECT_EQ(f.add_rest(r), Status::kTemperatureImplausible) << t;
+  }
+  EXPECT_EQ(f.rests(), 30);
+  EXPECT_EQ(f.min_c(), min_before);
+  EXPECT_EQ(f.max_c(), max_before);
+  ASSERT_EQ(f.solve(after), Status::kOk);
+  EXPECT_EQ(after.min_c, before.min_c);
+  EXPECT_EQ(after.accel.b1, before.accel.b1);
+  EXPECT_EQ(after.gyro.b1, before.gyro.b1);
+  for (const double t : {-100.0, 200.0}) {
+    RestSummary<S> r = cast_rest<S>(rests[3]);
+    r.temperature_c = static_cast<S>(t);
+    EXPECT_EQ(f.add_rest(r), Status::kOk) << t;
+  }
+  EXPECT_EQ(f.min_c(), S(-100));
+  EXPECT_EQ(f.max_c(), S(200));
+  TemperatureSettings<S> cold;
+  cold.reference_c = S(-300);
+  EXPECT_EQ(f.reset(base, cold), Status::kInvalidArgument);
+  Calibration<S> hot = base;
+  hot.temperature_c = S(1e30);
+  EXPECT_EQ(f.reset(hot), Status::kInvalidArgument);
+  EXPECT_EQ(f.add_rest(cast_rest<S>(rests[0])), Status::kNotStarted);
+}
+
+TEST(TemperatureFit, ImplausibleTemperaturesRefusedDouble) { implausible_temperatures<double>(); }
+TEST(TemperatureFit, ImplausibleTemperaturesRefusedFloat) { implausible_temperatures<float>(); }
+
 }  // namespace
 }  // namespace imucal

@@ -181,9 +181,11 @@ bool temperature_bias_ok(const TemperatureBias<float>& b, int order) {
          (order == 2 || (b.b2.isZero(0.0f) && b.b2_sigma.isZero(0.0f)));
 }
 bool temperature_range_ok(float t) { return temperature_ok(true, t); }
-bool temperature_model_ok(const TemperatureModel<float>& t) {
+// A sensor's coefficients only with the sensor: bounded through its matrix, applied to it alone.
+bool temperature_model_ok(const TemperatureModel<float>& t, std::uint16_t parts) {
   const bool a = succeeded(t.accel.status), g = succeeded(t.gyro.status);
-  return (t.order == 1 || t.order == 2) && (a || g) && t.rests >= 1 && t.rests <= 0xFFFF &&
+  return (t.order == 1 || t.order == 2) && (a || g) && (!a || (parts & kRecordAccel)) &&
+         (!g || (parts & kRecordGyro)) && t.rests >= 1 && t.rests <= 0xFFFF &&
          std::isfinite(t.reference_c) && std::isfinite(t.min_c) && std::isfinite(t.max_c) &&
          (!a || temperature_bias_ok(t.accel, t.order)) &&
          (!g || temperature_bias_ok(t.gyro, t.order));
@@ -195,7 +197,7 @@ bool record_ok(const CalibrationRecord& r) {
          (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
          (!(r.parts & kRecordGyro) || gyro_ok(c.gyro)) &&
          (!(r.parts & kRecordMag) || mag_ok(r.mag)) &&
-         (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature));
+         (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature, r.parts));
 }
 
 // The section a bound's value lives in.
@@ -219,6 +221,14 @@ Tag bound_tag(Bound b, bool from_temperature_model) {
   }
 }
 
+// A temperature model's bound, through the matrices of the sensors in the record r.
+Bound temperature_bound(const CalibrationRecord& r, const TemperatureModel<float>& t) {
+  const Matrix3<float> ma = accel_matrix(r.calibration.accel.params);
+  const Matrix3<float> mg = gyro_matrix<float>(r.calibration.gyro.params);
+  return temperature_model_bound(t, (r.parts & kRecordAccel) ? &ma : nullptr,
+                                 (r.parts & kRecordGyro) ? &mg : nullptr);
+}
+
 Bound record_bound_in(const CalibrationRecord& r, bool* in_temperature_model) {
   *in_temperature_model = false;
   const Calibration<float>& c = r.calibration;
@@ -232,9 +242,7 @@ Bound record_bound_in(const CalibrationRecord& r, bool* in_temperature_model) {
       (b = mag_bound(r.mag.soft_iron, r.mag.hard_iron, r.mag.field_ut)) != Bound::kNone)
     return b;
   if (r.parts & kRecordTemperature) {
-    const Matrix3<float> ma = accel_matrix(c.accel.params);
-    const Matrix3<float> mg = gyro_matrix<float>(c.gyro.params);
-    b = temperature_model_bound(r.temperature, accel ? &ma : nullptr, gyro ? &mg : nullptr);
+    b = temperature_bound(r, r.temperature);
     *in_temperature_model = b != Bound::kNone;
   }
   return b;
@@ -371,13 +379,18 @@ void write_temperature_bias(Writer& w, const TemperatureBias<float>& b, int orde
 }
 
 // The order comes first: it sets the payload's length (checked by the caller through `length`).
-bool read_temperature(Reader& in, std::size_t length, TemperatureModel<float>& t) {
+// The flags' bits 0 and 1 are the parts bits of the accelerometer and the gyro: the coefficients
+// of a sensor the record does not hold are read and left out, a model of none of its sensors is
+// refused.
+static_assert(kRecordAccel == 1u && kRecordGyro == 2u, "the temperature flags' bits");
+bool read_temperature(Reader& in, std::size_t length, std::uint16_t parts,
+                      TemperatureModel<float>& t) {
   t.order = in.u8();
   in.expect(t.order == 1 || t.order == 2, 1);
   if (in.failed()) return true;
   if (length < temperature_bytes(t.order)) return false;
-  const std::uint8_t flags = in.u8();
-  in.expect(flags != 0 && (flags & ~3u) == 0, 1);
+  const unsigned flags = in.u8();
+  in.expect((flags & ~3u) == 0 && (flags & parts) != 0, 1);
   t.rests = in.u16();
   in.expect(t.rests >= 1, 2);
   t.reference_c = in.f32();
@@ -386,8 +399,8 @@ bool read_temperature(Reader& in, std::size_t length, TemperatureModel<float>& t
   in.expect(temperature_range_ok(t.min_c), 4);
   t.max_c = in.f32();
   in.expect(temperature_range_ok(t.max_c) && t.min_c <= t.max_c, 4);
-  read_temperature_bias(in, t.accel, t.order, (flags & 1u) != 0);
-  read_temperature_bias(in, t.gyro, t.order, (flags & 2u) != 0);
+  read_temperature_bias(in, t.accel, t.order, (flags & parts & kRecordAccel) != 0);
+  read_temperature_bias(in, t.gyro, t.order, (flags & parts & kRecordGyro) != 0);
   return true;
 }
 void write_temperature(Writer& w, const TemperatureModel<float>& t) {
@@ -439,9 +452,9 @@ MagCalibration<float> mag_to_float(const MagCalibration<Scalar>& m) {
 }
 
 template <typename Scalar>
-TemperatureBias<float> bias_to_float(const TemperatureBias<Scalar>& b, int order) {
+TemperatureBias<float> bias_to_float(const TemperatureBias<Scalar>& b, int order, bool keep) {
   TemperatureBias<float> f;
-  if (!succeeded(b.status)) return f;
+  if (!keep || !succeeded(b.status)) return f;
   f.status = Status::kOk;
   f.b0 = b.b0.template cast<float>();
   f.b1 = b.b1.template cast<float>();
@@ -454,17 +467,34 @@ TemperatureBias<float> bias_to_float(const TemperatureBias<Scalar>& b, int order
   return f;
 }
 
+// The coefficients of the sensors in `parts` only; the rests counted up to the format's 65535.
 template <typename Scalar>
-TemperatureModel<float> temperature_to_float(const TemperatureModel<Scalar>& t) {
+TemperatureModel<float> temperature_to_float(const TemperatureModel<Scalar>& t,
+                                             std::uint16_t parts) {
   TemperatureModel<float> f;
   f.order = t.order;
   f.reference_c = static_cast<float>(t.reference_c);
   f.min_c = static_cast<float>(t.min_c);
   f.max_c = static_cast<float>(t.max_c);
-  f.rests = t.rests;
-  f.accel = bias_to_float(t.accel, t.order);
-  f.gyro = bias_to_float(t.gyro, t.order);
+  f.rests = t.rests < 0xFFFF ? t.rests : 0xFFFF;
+  f.accel = bias_to_float(t.accel, t.order, (parts & kRecordAccel) != 0);
+  f.gyro = bias_to_float(t.gyro, t.order, (parts & kRecordGyro) != 0);
   return f;
+}
+
+// Adds the temperature model m to a record that is right without it, if the two are right
+// together; otherwise the record stays as it was and *bound names the bound m broke (kNone: a
+// value that does not fit the format). A model without coefficients for the record's sensors
+// is not a part: left out.
+void add_temperature(CalibrationRecord& r, const TemperatureModel<float>& m, Bound* bound) {
+  if (!succeeded(m.accel.status) && !succeeded(m.gyro.status)) return;
+  const Bound b = temperature_bound(r, m);
+  if (b == Bound::kNone && temperature_model_ok(m, r.parts)) {
+    r.temperature = m;
+    r.parts = static_cast<std::uint16_t>(r.parts | kRecordTemperature);
+  } else if (bound != nullptr) {
+    *bound = b;
+  }
 }
 
 Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
@@ -536,15 +566,13 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
     r.mag = mag_to_float(*mag);
     r.parts = static_cast<std::uint16_t>(r.parts | kRecordMag);
   }
-  if (temperature != nullptr &&
-      (succeeded(temperature->accel.status) || succeeded(temperature->gyro.status))) {
-    r.temperature = temperature_to_float(*temperature);
-    r.parts = static_cast<std::uint16_t>(r.parts | kRecordTemperature);
-  }
+  if (bound != nullptr) *bound = Bound::kNone;
   if (!record_ok(r)) return Status::kInvalidArgument;
   const Bound b = record_bound(r);
   if (bound != nullptr) *bound = b;
   if (b != Bound::kNone) return Status::kImplausible;
+  if (temperature != nullptr)
+    add_temperature(r, temperature_to_float(*temperature, r.parts), bound);
   out = r;
   return Status::kOk;
 }
@@ -679,7 +707,7 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
         if (length < kTemperatureHeadBytes)
           return fail(Status::kRecordBadLength, at + 2, error_offset);
         if (!(parts & kRecordTemperature)) return fail(Status::kRecordBadField, at, error_offset);
-        if (!read_temperature(in, length, r.temperature))
+        if (!read_temperature(in, length, parts, r.temperature))
           return fail(Status::kRecordBadLength, at + 2, error_offset);
         break;
       default:

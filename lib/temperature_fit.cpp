@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <cmath>
 
+#include "imucal/models/plausibility.hpp"  // temperature_plausible
 #include "imucal/solve/symmetric_eigen3.hpp"
 
 namespace imucal {
@@ -142,7 +143,7 @@ Status TemperatureFit<Scalar, MaxOrder>::reset(const Calibration<Scalar>& base,
     if (!base.has_temperature) return Status::kInvalidArgument;
     t0 = base.temperature_c;
   }
-  if (!std::isfinite(t0)) return Status::kInvalidArgument;
+  if (!temperature_plausible(t0)) return Status::kInvalidArgument;  // NaN too
   if (!succeeded(base.accel.status) || !succeeded(base.gyro.status))
     return Status::kInvalidArgument;
   if (!all_finite(base.accel.params) || !all_finite(base.gyro.params))
@@ -208,6 +209,8 @@ Status TemperatureFit<Scalar, MaxOrder>::add_rest(const RestSummary<Scalar>& res
   if (!std::isfinite(rest.temperature_c) || !all_finite(rest.accel_mean) ||
       !all_finite(rest.gyro_mean))
     return Status::kNonFiniteInput;
+  // The model's range must be one a record holds: a broken sensor's -300 degC would cost it.
+  if (!temperature_plausible(rest.temperature_c)) return Status::kTemperatureImplausible;
   if (rest.samples == 0) return Status::kTooFewSamples;
 
   const Scalar s = (rest.temperature_c - reference_c_) / static_cast<Scalar>(kTemperatureScaleC);

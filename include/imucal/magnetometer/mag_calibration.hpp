@@ -115,8 +115,15 @@ inline int mag_cell(const Vector3<Scalar>& d, int n, Scalar& u, Scalar& v) {
 // Samples closer to the centre than half the largest half-range seen are not held (the centre
 // is not known yet; nothing useful). Cost: one division, a handful of compares and a few
 // multiplications (~160 instructions on a Cortex-M4F, bench/insn/bench_mag.cpp); the centre is
-// recomputed only when the min/max box grows. A single wild reading (a spike) widens the box for
-// good: reset() before a new collection.
+// recomputed only when the min/max box grows.
+//
+// Glitches: a reading that would stretch the box, on its longest side, beyond 3 field strengths
+// in raw units (3 field_max_ut / unit_ut; an undistorted sensor's readings span 2) and beyond twice
+// its extent so far (so the box still grows with the turning under a unit_ut 30 times too large;
+// beyond, readings turn into glitches and solve() says kFieldImplausible) is a wild
+// one, e.g. a saturated read (32767 counts): refused (kGlitch) and counted (glitches()), the box
+// and the samples held unchanged. Until a sample is held, a glitch starts the box again from that
+// reading instead (the wild reading may have been the first).
 //
 // solve() fits all the samples held, whatever centre they were binned about.
 template <typename Scalar, int CellsPerEdge = 4, int MaxRests = 32>
@@ -124,6 +131,7 @@ class MagCalibrator {
  public:
   static_assert(CellsPerEdge >= 1 && CellsPerEdge <= 16, "cells per cube-face edge");
   static_assert(MaxRests >= kMagMinRests, "room for the rests the alignment needs");
+  static_assert(MaxRests <= 0x7FFF, "rests counted in 16 bits");
   static constexpr int kCells = 6 * CellsPerEdge * CellsPerEdge;
   using scalar_type = Scalar;
 
@@ -136,6 +144,7 @@ class MagCalibrator {
     for (int i = 0; i < kCells; ++i) slot_[i] = -1;
     size_ = 0;
     rests_ = 0;
+    glitches_ = 0;
     // An empty box: the first sample grows it to itself (and is not held: no direction yet).
     min_.setConstant(std::numeric_limits<Scalar>::infinity());
     max_.setConstant(-std::numeric_limits<Scalar>::infinity());
@@ -148,8 +157,9 @@ class MagCalibrator {
   }
   const MagSettings<Scalar>& settings() const { return settings_; }
 
-  // One raw reading. kNonFiniteInput (nothing changed) for NaN or infinity; otherwise kOk,
-  // whether or not the sample is held (see the class comment).
+  // One raw reading. kNonFiniteInput (nothing changed) for NaN or infinity; kGlitch for a wild
+  // reading (see the class comment; nothing held changes); otherwise kOk, whether or not the
+  // sample is held.
   Status add(const Vector3<Scalar>& m_raw) {
     const Scalar x = m_raw(0), y = m_raw(1), z = m_raw(2);
     // 0 * x is NaN for NaN and infinity, 0 otherwise: one test for the three axes.
@@ -157,11 +167,19 @@ class MagCalibrator {
     if (!(zero * x + zero * y + zero * z == zero)) return Status::kNonFiniteInput;
     // The box grows rarely once the user has turned all round; then the centre moves.
     if (x < min_(0) || y < min_(1) || z < min_(2) || x > max_(0) || y > max_(1) || z > max_(2)) {
-      min_ = min_.cwiseMin(m_raw);
-      max_ = max_.cwiseMax(m_raw);
+      Vector3<Scalar> lo = min_.cwiseMin(m_raw), hi = max_.cwiseMax(m_raw);
+      const bool glitch = (hi - lo).maxCoeff() > glitch_extent();
+      if (glitch) {
+        ++glitches_;
+        if (size_ > 0) return Status::kGlitch;
+        lo = hi = m_raw;  // nothing held yet: the box starts again from this reading
+      }
+      min_ = lo;
+      max_ = hi;
       centre_ = Scalar(0.5) * (min_ + max_);
       const Scalar half_range = Scalar(0.5) * (max_ - min_).maxCoeff();
       near2_ = Scalar(0.25) * half_range * half_range;
+      if (glitch) return Status::kGlitch;
     }
     const Vector3<Scalar> d = m_raw - centre_;
     // |d| <= half the largest half-range: too near the centre to give a direction.
@@ -216,7 +234,10 @@ class MagCalibrator {
   // were computed (samples, iterations, coverage, field_ut, fit_error_pct) are filled, so the
   // reason can be seen; when no fit exists, coverage is raw_coverage(). Quality on success:
   // kGood if coverage >= 0.8 and fit error <= 1.5 %, kFair if coverage >= 0.65 and fit error
-  // <= 3 %, else kPoor. Never NaN. The alignment fields are reset (kNotStarted).
+  // <= 3 %, else kPoor. Never NaN. The alignment fields are reset (kNotStarted). A fit refused
+  // (other than for invalid settings) while more readings were refused as glitches than samples
+  // are held is kFieldImplausible: the readings show a field beyond 3 field_max_ut (a wrong
+  // unit_ut, or a magnet near the sensor), whatever the few samples held lack.
   Status solve(MagCalibration<Scalar>& out) const;
 
   // Optional: rotates a usable calibration into the accelerometer's frame, from the rests (>= 5,
@@ -236,6 +257,8 @@ class MagCalibrator {
   int size() const { return size_; }
   const Vector3<Scalar>& sample(int i) const { return samples_[i]; }  // 0 <= i < size()
   int rests() const { return rests_; }
+  // Wild readings refused (kGlitch) since reset().
+  std::uint32_t glitches() const { return glitches_; }
   // Fraction of the cells holding a sample (binned about the running centre): progress.
   Scalar raw_coverage() const { return Scalar(size_) / Scalar(kCells); }
 
@@ -249,12 +272,23 @@ class MagCalibrator {
     return (Scalar(i) + Scalar(0.5)) * (Scalar(2) / Scalar(CellsPerEdge)) - Scalar(1);
   }
 
+  // The longest side the box may stretch to with one reading: 3 field strengths in raw units, or
+  // twice its longest side so far if more (no limit from settings that give no field in raw
+  // units; an empty box's side is -infinity).
+  Scalar glitch_extent() const {
+    Scalar limit = Scalar(3) * settings_.field_max_ut / settings_.unit_ut;
+    if (!(limit > Scalar(0))) limit = std::numeric_limits<Scalar>::infinity();
+    const Scalar grown = Scalar(2) * (max_ - min_).maxCoeff();
+    return grown > limit ? grown : limit;
+  }
+
   // The per-sample state first: small offsets from `this` (one load instruction each on Thumb-2).
   Vector3<Scalar> min_ = Vector3<Scalar>::Zero(), max_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> centre_ = Vector3<Scalar>::Zero();  // midpoint of min_ and max_
   Scalar near2_ = Scalar(0);  // squared distance from the centre below which nothing is held
-  int size_ = 0;
-  int rests_ = 0;
+  std::int16_t size_ = 0;     // 16 bits each (kCells, MaxRests): room for glitches_
+  std::int16_t rests_ = 0;
+  std::uint32_t glitches_ = 0;
   std::int16_t slot_[static_cast<std::size_t>(kCells)];  // index into samples_, -1: empty
   Vector3<Scalar> samples_[static_cast<std::size_t>(kCells)];
   MagSettings<Scalar> settings_;
@@ -273,7 +307,10 @@ Status mag_align(const Vector3<Scalar>* rest_mag, const Vector3<Scalar>* rest_ac
 
 template <typename Scalar, int CellsPerEdge, int MaxRests>
 Status MagCalibrator<Scalar, CellsPerEdge, MaxRests>::solve(MagCalibration<Scalar>& out) const {
-  return mag_solve(samples_, size_, settings_, CellsPerEdge, raw_coverage(), out);
+  const Status s = mag_solve(samples_, size_, settings_, CellsPerEdge, raw_coverage(), out);
+  if (!succeeded(s) && s != Status::kInvalidArgument && glitches_ > std::uint32_t(size_))
+    return out.status = Status::kFieldImplausible;
+  return s;
 }
 
 template <typename Scalar, int CellsPerEdge, int MaxRests>

@@ -27,6 +27,24 @@ inline bool finite3(const Vector3<Scalar>& v) {
   return std::isfinite(v(0)) && std::isfinite(v(1)) && std::isfinite(v(2));
 }
 
+// The farthest a sample may lie from the first one, per axis, in the sensor's unit: past any
+// sensor's range (a 32-bit converter's counts reach 4.3e9), and near enough that the squared
+// differences of 2^32 cluster means (4e24 each at most) still sum finitely in float, whose
+// squares alone overflow from 1.8e19.
+constexpr double kMaxSpread = 1e12;
+
+// Sample x against the first sample `ref`: kNonFiniteInput for a NaN or infinity, kGlitch
+// farther than kMaxSpread on an axis (their difference may even overflow), else kOk.
+template <typename Scalar>
+inline Status check_sample(const Vector3<Scalar>& x, const Vector3<Scalar>& ref) {
+  if (!finite3(x)) return Status::kNonFiniteInput;
+  const Vector3<Scalar> d = x - ref;
+  const Scalar limit = static_cast<Scalar>(kMaxSpread);
+  for (int a = 0; a < 3; ++a)
+    if (!(d(a) <= limit && d(a) >= -limit)) return Status::kGlitch;  // NaN or inf too
+  return Status::kOk;
+}
+
 }  // namespace allan_detail
 
 // One Allan variance estimate at one averaging time, per axis.
@@ -141,7 +159,9 @@ Scalar nonoverlapping_edf(std::uint32_t count, AllanNoise noise) {
 // both). Cluster means are built pairwise from the level below (pairwise summation, so float
 // keeps the noise's precision over long clusters), on samples re-centred on the first one (raw
 // counts of ~33000 keep their noise digits), and each level's sum of squared differences is
-// compensated (compensated_sum.hpp). Cost: two levels updated per sample on average.
+// compensated (compensated_sum.hpp). A sample farther than 1e12 (allan_detail::kMaxSpread) from
+// the first one is refused, so the sums stay finite in float. Cost: two levels updated per
+// sample on average.
 template <typename Scalar, int Levels>
 class AllanAccumulator {
   static_assert(Levels >= 1 && Levels <= 31, "1..31 octaves");
@@ -155,15 +175,18 @@ class AllanAccumulator {
     return Status::kOk;
   }
 
-  // One 3-axis sample. kNotStarted before start(); kNonFiniteInput (sample refused, nothing
-  // changed) on NaN or infinity.
+  // One 3-axis sample. kNotStarted before start(); refused, nothing changed: kNonFiniteInput
+  // on NaN or infinity, kGlitch farther than 1e12 from the first sample on an axis (a value no
+  // sensor reads, whose square float cannot sum).
   Status add(const Vector3<Scalar>& x) {
     if (!(tau0_ > Scalar(0))) return Status::kNotStarted;
-    if (!allan_detail::finite3(x)) return Status::kNonFiniteInput;
     if (!have_ref_) {
+      if (!allan_detail::finite3(x)) return Status::kNonFiniteInput;
       ref_ = x;
       have_ref_ = true;
     }
+    const Status checked = allan_detail::check_sample(x, ref_);
+    if (checked != Status::kOk) return checked;
     ++samples_;
     Vector3<Scalar> mean = x - ref_;
     for (int k = 0; k < Levels; ++k) {
@@ -204,7 +227,8 @@ class AllanAccumulator {
   // Level k's result: tau, Allan variance per axis, number of differences, edf (non-overlapping,
   // noise type from the slope to the neighbouring levels) and its 68 % interval.
   // kInvalidArgument for k out of range, kTooFewSamples when the level has no difference yet
-  // (`out` untouched).
+  // (`out` untouched). Never kOk with a NaN or an infinity (kNonFiniteInput, `out` untouched:
+  // the bound add() keeps on the samples rules it out).
   Status result(int k, AllanPoint<Scalar>& out) const {
     if (k < 0 || k >= Levels) return Status::kInvalidArgument;
     if (level_[k].count == 0) return Status::kTooFewSamples;
@@ -231,6 +255,9 @@ class AllanAccumulator {
       p.edf(a) = nonoverlapping_edf<Scalar>(p.count, type);
     }
     set_confidence(p);
+    if (!allan_detail::finite3(p.avar) || !allan_detail::finite3(p.edf) ||
+        !allan_detail::finite3(p.adev_lo) || !allan_detail::finite3(p.adev_hi))
+      return Status::kNonFiniteInput;
     out = p;
     return Status::kOk;
   }
@@ -267,7 +294,8 @@ class AllanAccumulator {
 // two window sums slid one sample at a time (O(n), no buffer), on samples re-centred on the first
 // and with compensated sums, so float keeps the noise digits of raw counts. kInvalidArgument for
 // m == 0; kTooFewSamples when n < 2m (avar and count untouched); kNonFiniteInput on a NaN or
-// infinity in the samples read.
+// infinity in the samples read, kGlitch on one farther than 1e12 from the first on an axis
+// (allan_detail::kMaxSpread: float's sums of squares would overflow).
 template <typename Scalar, typename Get>
 Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Scalar>& avar,
                            std::uint32_t& count) {
@@ -278,8 +306,10 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
   if (!allan_detail::finite3(ref)) return Status::kNonFiniteInput;
   Scalar s1[3] = {}, l1[3] = {}, s2[3] = {}, l2[3] = {}, sq[3] = {}, lq[3] = {};
   for (std::size_t i = 0; i < 2 * mm; ++i) {
-    const Vector3<Scalar> v = get(i) - ref;
-    if (!allan_detail::finite3(v)) return Status::kNonFiniteInput;
+    const Vector3<Scalar> x = get(i);
+    const Status checked = allan_detail::check_sample(x, ref);
+    if (checked != Status::kOk) return checked;
+    const Vector3<Scalar> v = x - ref;
     for (int a = 0; a < 3; ++a) {
       if (i < mm) {
         compensated_add(s1[a], l1[a], v(a));
@@ -296,8 +326,10 @@ Status overlapping_avar_at(Get&& get, std::size_t n, std::uint32_t m, Vector3<Sc
       compensated_add(sq[a], lq[a], d * d);
     }
     if (j == last) break;
-    const Vector3<Scalar> out1 = get(j) - ref, mid = get(j + mm) - ref, in2 = get(j + 2 * mm) - ref;
-    if (!allan_detail::finite3(in2)) return Status::kNonFiniteInput;
+    const Vector3<Scalar> x2 = get(j + 2 * mm);
+    const Status checked = allan_detail::check_sample(x2, ref);
+    if (checked != Status::kOk) return checked;
+    const Vector3<Scalar> out1 = get(j) - ref, mid = get(j + mm) - ref, in2 = x2 - ref;
     for (int a = 0; a < 3; ++a) {
       compensated_add(s1[a], l1[a], mid(a));
       compensated_add(s1[a], l1[a], -out1(a));
@@ -347,7 +379,8 @@ void set_overlapping_confidence(AllanPoint<Scalar>* pts, int count, std::size_t 
 // neighbouring points) and the 68 % interval. get(i) returns sample i as a Vector3<Scalar>.
 // kInvalidArgument for tau0 <= 0, per_decade < 1 or capacity < 1; kTooFewSamples when n < 20
 // (n_out = 0); kCapacityExceeded when more sizes than `capacity`: the first `capacity` (the
-// shortest taus) are filled; kNonFiniteInput (n_out = 0) on a NaN or infinity in the samples.
+// shortest taus) are filled; kNonFiniteInput (n_out = 0) on a NaN or infinity in the samples,
+// kGlitch (n_out = 0) on one farther than 1e12 from the first.
 template <typename Scalar, typename Get>
 Status overlapping_allan(Get&& get, std::size_t n, Scalar tau0, int per_decade,
                          AllanPoint<Scalar>* out, int capacity, int& n_out) {

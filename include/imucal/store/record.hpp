@@ -31,10 +31,12 @@
 //          sigma of h (12), sigma of the symmetric S in mag_model.hpp's order (24), field in uT
 //          (4), fit error in % (4), coverage 0..1 (4), dip in degrees (4), its sigma (4)
 //   tag 5, temperature model (112 bytes linear, 160 quadratic, iff parts bit 3): order (1: 1 or
-//          2), flags (1: bit 0 accelerometer model usable, bit 1 gyro model usable), rests (2),
-//          reference temperature T0, lowest and highest temperature fitted (12, deg C), then for
-//          the accelerometer and then the gyro: b0, b1 (and b2 if quadratic) (3 each), then
-//          their sigmas in the same order; an unusable sensor's values are zeros
+//          2), flags (1: bit 0 accelerometer model usable, bit 1 gyro model usable, each only
+//          with its sensor's part: a model of neither sensor in the record is refused, the
+//          coefficients of a sensor not in it are left out), rests (2), reference temperature
+//          T0, lowest and highest temperature fitted (12, deg C), then for the accelerometer and
+//          then the gyro: b0, b1 (and b2 if quadratic) (3 each), then their sigmas in the same
+//          order; an unusable sensor's values are zeros
 //
 // Sizes: accelerometer and gyro 232 bytes; with the magnetometer 344; with a linear temperature
 // model too 460, quadratic 508.
@@ -89,12 +91,19 @@ struct CalibrationRecord {
 };
 
 // The record of a calibration: its usable parts (succeeded status, finite values) and quality,
-// and, if given and usable, the magnetometer's calibration and the temperature model (a model
-// with neither sensor usable is left out). kInvalidArgument if no part is usable or a value
-// does not fit the format (counts above 65535, a non-positive scale, a negative sigma,
-// non-finite values, a temperature model of another order than 1 or 2); kImplausible if a value
-// is outside its physical bounds (plausibility.hpp), *bound (if given) saying which. The
-// temperature at calibration is a note, not a parameter: one that is not finite or outside
+// and, if given and usable, the magnetometer's calibration. kInvalidArgument if no part is usable
+// or a value does not fit the format (counts above 65535, a non-positive scale, a negative sigma,
+// non-finite values); kImplausible if a value is outside its physical bounds (plausibility.hpp),
+// *bound (if given) saying which (kNone otherwise).
+// The temperature model, if given, is a part only beside a sensor it models (its coefficients
+// are bounded through that sensor's matrix and the corrector applies them to no other): the
+// coefficients of the sensors in the record are kept, the others left out, and a model of none
+// of them is not recorded (so no record holds a temperature model alone); its rest count is
+// recorded up to 65535. A model that cannot go in costs only itself: out of its bounds (a range
+// beyond -100..200 degC, a slope too steep, NaN) or not fitting the format (an order other than
+// 1 or 2, a negative sigma), it is left out, the rest recorded with kOk, and *bound names the
+// bound it broke (kNone for a format misfit); out.parts says whether it went in.
+// The temperature at calibration is a note, not a parameter: one that is not finite or outside
 // -100..200 degC is recorded as unknown (has_temperature false) rather than losing the
 // calibration.
 template <typename Scalar>
@@ -109,7 +118,8 @@ Status make_record(const Calibration<Scalar>& calibration, std::uint32_t device_
 Bound record_bound(const CalibrationRecord& record);
 
 // Writes the record into out[0, capacity); *size receives its length. kInvalidArgument for an
-// inconsistent record (the checks of decode_record), kImplausible for a value outside its
+// inconsistent record (the checks of decode_record; a temperature model's usable coefficients
+// for a sensor not in the record among them), kImplausible for a value outside its
 // physical bounds (record_bound() says which), kCapacityExceeded if it does not fit.
 Status encode_record(const CalibrationRecord& record, std::uint8_t* out, std::size_t capacity,
                      std::size_t* size);

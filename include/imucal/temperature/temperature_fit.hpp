@@ -90,13 +90,16 @@ class TemperatureFit {
   // Forgets every rest and starts again around `base` (kept as the linearisation point: its
   // accelerometer T K and bias, its gyro bias). Both of base's parts must be usable
   // (succeeded(status)) and finite, the settings in range, and T0 known (reference_c or the
-  // base's temperature): otherwise kInvalidArgument, and add_rest()/solve() report kNotStarted.
+  // base's temperature) and within -100..200 deg C (plausibility.hpp, the temperatures a record
+  // holds): otherwise kInvalidArgument, and add_rest()/solve() report kNotStarted.
   Status reset(const Calibration<Scalar>& base,
                const TemperatureSettings<Scalar>& settings = TemperatureSettings<Scalar>());
 
   // Folds in one rest. Refused, nothing changed: before a successful reset (kNotStarted),
-  // without a temperature (kInvalidArgument), with a NaN or infinity (kNonFiniteInput), with no
-  // samples (kTooFewSamples). Weight: the rest's sample count.
+  // without a temperature (kInvalidArgument), with a NaN or infinity (kNonFiniteInput), at a
+  // temperature outside -100..200 deg C (kTemperatureImplausible: the model's range stays one a
+  // record holds, make_record()), with no samples (kTooFewSamples). Weight: the rest's sample
+  // count.
   Status add_rest(const RestSummary<Scalar>& rest);
 
   // Solves both parts from the rests so far (const: more rests may follow). out.accel.status and
