@@ -279,7 +279,7 @@ class Calibrator {
 
   // A gap, a clock reset, a gyro at full scale: the rest before it still counts (trimmed as
   // before motion); the move across it is dropped.
-  void stream_cut() {
+  __attribute__((noinline)) void stream_cut() {
     if (phase_ == Phase::kInitialRest) {
       restart_initial_rest();
       return;
@@ -290,7 +290,7 @@ class Calibrator {
 
   // A frozen sensor: the samples since it froze may already sit in the rest, so the rest in
   // progress is discarded with the move.
-  void sensor_froze() {
+  __attribute__((noinline)) void sensor_froze() {
     if (phase_ == Phase::kInitialRest) {
       restart_initial_rest();
       return;

@@ -243,11 +243,10 @@ struct CheckedSample {
 template <typename Scalar>
 class StreamChecks {
  public:
-  // Starts again with new settings (settings that are not valid() make check() refuse every
-  // sample with kInvalidArgument). gap_us: the largest step that is not a gap.
+  // Starts again with new settings. The consumer checks them (StreamSettings::valid()) and
+  // refuses every sample while they are not valid: check() assumes they are.
   void reset(const StreamSettings<Scalar>& s) {
     has_gyro_ = s.has_gyro;
-    valid_ = s.valid();
     frozen_seconds_ = s.frozen_seconds;
     temperature_min_ = s.temperature_min_c;
     temperature_max_ = s.temperature_max_c;
@@ -277,11 +276,13 @@ class StreamChecks {
 
   // One sample. Taken (out filled; the consumer then accepts or refuses it): kOk, or a note:
   // kTimestampGap, kClockReset, kAccelSaturated, kSampleRateOff, kTemperatureImplausible.
-  // Refused (nothing of the consumer's changes, but the sink calls): kInvalidArgument,
-  // kNonFiniteInput, kTimeRepeated, kTimeBackwards, kSensorFrozen, kGyroSaturated.
+  // Refused (nothing of the consumer's changes, but the sink calls): kNonFiniteInput,
+  // kTimeRepeated, kTimeBackwards, kSensorFrozen, kGyroSaturated. Inlined into the consumer's
+  // per-sample path (out of line it would pass the sample and its result through memory); the rare
+  // paths are out of line.
   template <class Sink>
-  Status check(const ImuSample<Scalar>& s, Sink& sink, CheckedSample<Scalar>& out) {
-    if (!valid_) return refuse(Status::kInvalidArgument);
+  __attribute__((always_inline)) Status check(const ImuSample<Scalar>& s, Sink& sink,
+                                              CheckedSample<Scalar>& out) {
     // Every reading finite and inside its full scale: one test per sensor on the usual path
     // (inside a ball within the box of the limits; NaN fails it), exact tests only outside it.
     bool gyro_saturated = false, acc_saturated = false;
@@ -435,7 +436,6 @@ class StreamChecks {
     return refuse(Status::kGyroSaturated);
   }
 
-  bool valid_ = false;
   bool has_gyro_ = true;
   bool have_prev_ = false;  // t_prev_ holds a time to order against
   bool restart_ = true;     // the next sample taken starts the stream (no interval)
