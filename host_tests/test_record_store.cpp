@@ -453,6 +453,33 @@ TEST(SimEccFlash, RefusesAUnitProgrammedTwiceAndTearsOnPowerCut) {
   EXPECT_EQ(torn, 1);
 }
 
+// A burst of misreads of one area: only reads touching it are disturbed, each once, n times; two
+// areas at once; cleared with the other read faults.
+TEST(SimEccFlash, MisreadsAnAreaABurstAtATime) {
+  Ecc& f = new_flash<Ecc>();
+  std::uint8_t a[16], out[16];
+  std::memset(a, 0x5A, sizeof a);
+  ASSERT_EQ(f.program(0, a, 16), Status::kOk);
+  ASSERT_EQ(f.program(2048, a, 16), Status::kOk);
+  f.misread_area(0, 8, 2, false);             // 2 reads of bytes 0..7 flip a bit
+  f.misread_area(2048, 16, 1, true);          // 1 read of bytes 2048..2063 fails
+  ASSERT_EQ(f.read(8, out, 8), Status::kOk);  // outside the first area: right
+  EXPECT_EQ(out[0], 0x5A);
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_EQ(f.read(4, out, 8), Status::kOk);  // overlaps bytes 4..7: the middle one flips
+    EXPECT_EQ(out[2], 0x5A ^ 0x10) << k;
+    EXPECT_EQ(out[0] ^ out[1] ^ out[3] ^ out[4] ^ out[5] ^ out[6] ^ out[7], 0x5A) << k;
+  }
+  ASSERT_EQ(f.read(0, out, 16), Status::kOk);  // the burst is over
+  EXPECT_EQ(std::memcmp(out, a, 16), 0);
+  EXPECT_EQ(f.read(2056, out, 4), Status::kStorageError);
+  ASSERT_EQ(f.read(2056, out, 4), Status::kOk);
+  EXPECT_EQ(out[0], 0x5A);
+  f.misread_area(0, 16, 5, true);
+  f.clear_read_faults();
+  EXPECT_EQ(f.read(0, out, 16), Status::kOk);
+}
+
 // ---- Each way the store used to lose a record --------------------------------------------------
 
 // Wraps a region and fails chosen reads (numbered from 0 since construction or rearm()).
