@@ -20,9 +20,9 @@
 //
 // A slot is valid if a read of it finds the commit and the record it names with both CRC-32s
 // right, and sealed if that read also finds the seal. A misread cannot make a read valid: the
-// CRC-32s detect every error of up to 3 bits in the record and of up to 5 in the commit, and
-// every burst of up to 32 bits, and any other with a chance of 2^-32. So a slot is read until a
-// read finds it sealed, at most kReadAttempts times (kMaxMisreads + 1): a burst of misreads
+// CRC-32s detect every error of up to 3 bits in the record and of up to 5 in the commit, every
+// burst of up to 32 bits, and miss any other with a chance of about 2^-32. So a slot is read until
+// a read finds it sealed, at most kReadAttempts times (kMaxMisreads + 1): a burst of misreads
 // leaves one read right, and the best read is the truth.
 //
 // save() writes one slot: erase (the commit's unit first), program the record, then the commit,
