@@ -13,13 +13,21 @@ using detail::load_u32;
 using detail::store_u32;
 
 constexpr std::uint16_t kCommitTag = 0xC35Au;
-constexpr int kMaxReads = 4;  // reads of a slot until two agree (unreadable: all of them)
 
 // a was written after b (sequence numbers wrap: serial-number arithmetic).
 bool later(std::uint32_t a, std::uint32_t b) { return static_cast<std::int32_t>(a - b) > 0; }
 
 std::uint32_t round_up(std::uint32_t n, std::uint32_t unit) {
   return (n + unit - 1) / unit * unit;  // n and unit are small (checked geometry)
+}
+
+// The seal: the commit's own CRC and its complement (erased flash, 0xFF, is no seal).
+void stage_seal(std::uint8_t* seal, std::uint32_t commit_crc) {
+  store_u32(seal, commit_crc);
+  store_u32(seal + 4, ~commit_crc);
+}
+bool seal_matches(const std::uint8_t* seal, std::uint32_t commit_crc) {
+  return load_u32(seal) == commit_crc && load_u32(seal + 4) == ~commit_crc;
 }
 
 // Releases the store's busy flag when a call returns.
@@ -45,7 +53,8 @@ Status RecordStore::check_geometry(const FlashGeometry& g) const {
   if (!flash_geometry_nests(g)) return Status::kInvalidArgument;
   if ((g.size / g.erase_size) % 2 != 0) return Status::kInvalidArgument;  // two slots of units
   const std::uint32_t need = round_up(kCommitBytes, g.program_unit) +
-                             round_up(static_cast<std::uint32_t>(kRecordMaxBytes), g.program_unit);
+                             round_up(static_cast<std::uint32_t>(kRecordMaxBytes), g.program_unit) +
+                             round_up(kSealBytes, g.program_unit);
   if (g.size / 2 < need) return Status::kInvalidArgument;
   return Status::kOk;
 }
@@ -58,8 +67,8 @@ void RecordStore::note_sequence(const Read& r) {
   sequence_seen_ = true;
 }
 
-// One read of a slot: the commit, then the record it names.
-RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord* out) {
+// One read of a slot: the commit, the record it names, then (with_seal) the seal after it.
+RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord* out, bool with_seal) {
   const FlashGeometry g = flash_.geometry();
   const std::uint32_t base = slot_offset(slot);
   Read r;
@@ -97,34 +106,43 @@ RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord* out) {
   if (r.status != Status::kOk) return r;
   r.kind = Kind::kValid;
   if (out != nullptr) *out = decoded;
+  if (!with_seal) return r;
+  std::uint8_t seal[kSealBytes];
+  if (flash_.read(at + round_up(length, g.program_unit), seal, kSealBytes) == Status::kOk &&
+      seal_matches(seal, load_u32(commit + 16)))
+    r.kind = Kind::kSealed;
   return r;
 }
 
-RecordStore::View RecordStore::read_settled(int slot, CalibrationRecord* out) {
+// Reads a slot until a read finds it sealed, at most kReadAttempts times: a burst of up to
+// kReadAttempts - 1 misreads of the slot leaves one read right, and no misread makes a read
+// valid (it cannot match both CRC-32s), so the best read is the truth.
+RecordStore::View RecordStore::scan(int slot, CalibrationRecord* out) {
   View v;
   CalibrationRecord record;
-  Read previous;
-  for (int k = 0; k < kMaxReads; ++k) {
-    const Read r = read_once(slot, &record);
+  bool readable = false;
+  Status last = Status::kStorageError;  // what the last read that read anything found
+  for (int k = 0; k < kReadAttempts && v.rank != Rank::kSealed; ++k) {
+    const Read r = read_once(slot, &record, true);
     note_sequence(r);
-    v.ever_valid = v.ever_valid || r.kind == Kind::kValid;
-    v.ever_unreadable = v.ever_unreadable || r.kind == Kind::kUnreadable;
-    if (r.kind == Kind::kValid && out != nullptr) *out = record;  // the last valid read
-    // Unreadable settles only on the last reads: a burst of read errors is not a torn slot.
-    const bool may_settle = r.kind != Kind::kUnreadable || k == kMaxReads - 1;
-    if (k > 0 && may_settle && r.kind == previous.kind && r.status == previous.status &&
-        r.sequence_known == previous.sequence_known && r.sequence == previous.sequence &&
-        r.record_crc == previous.record_crc) {
-      v.read = r;
-      v.settled = true;
-      break;
+    if (r.kind == Kind::kUnreadable) continue;
+    readable = true;
+    if (r.kind == Kind::kInvalid) {
+      last = r.status;
+      continue;
     }
-    previous = r;
-    v.read = r;
+    const Rank rank = r.kind == Kind::kSealed ? Rank::kSealed : Rank::kValid;
+    if (rank <= v.rank) continue;
+    v.rank = rank;
+    v.sequence = r.sequence;
+    if (out != nullptr) *out = record;
   }
+  const bool valid = v.rank >= Rank::kValid;
+  if (!valid) v.rank = readable ? Rank::kNothing : Rank::kUnreadable;
   Slot& s = slots_[slot];
-  s.status = v.settled ? v.read.status : Status::kStorageError;
-  s.sequence = v.settled && v.read.kind == Kind::kValid ? v.read.sequence : 0;
+  s.status = valid ? Status::kOk : last;
+  s.sequence = valid ? v.sequence : 0;
+  s.sealed = v.rank == Rank::kSealed;
   return v;
 }
 
@@ -138,19 +156,17 @@ Status RecordStore::load_locked(CalibrationRecord& out) {
   if (check_geometry() != Status::kOk) return Status::kInvalidArgument;
   CalibrationRecord records[2];
   View v[2];
-  for (int k = 0; k < 2; ++k) v[k] = read_settled(k, &records[k]);
-  // Records read valid on every read first; failing those, one that read valid at least once
-  // (a slot that reads differently each time still holds the best record there is).
+  for (int k = 0; k < 2; ++k) v[k] = scan(k, &records[k]);
+  // The newest sealed record; failing that, the newest whose save did not finish.
   int newest = -1;
-  for (int pass = 0; pass < 2 && newest < 0; ++pass)
-    for (int k = 0; k < 2; ++k) {
-      const bool candidate =
-          pass == 0 ? (v[k].settled && v[k].read.kind == Kind::kValid) : v[k].ever_valid;
-      if (!candidate) continue;
-      if (newest < 0 || later(v[k].read.sequence, v[newest].read.sequence)) newest = k;
-    }
+  for (const Rank want : {Rank::kSealed, Rank::kValid}) {
+    for (int k = 0; k < 2; ++k)
+      if (v[k].rank == want && (newest < 0 || later(v[k].sequence, v[newest].sequence))) newest = k;
+    if (newest >= 0) break;
+  }
   if (newest < 0)
-    return v[0].ever_unreadable || v[1].ever_unreadable ? Status::kStorageError : Status::kNoRecord;
+    return v[0].rank == Rank::kUnreadable || v[1].rank == Rank::kUnreadable ? Status::kStorageError
+                                                                            : Status::kNoRecord;
   out = records[newest];
   return Status::kOk;
 }
@@ -170,19 +186,20 @@ Status RecordStore::program_range(std::uint32_t offset, const std::uint8_t* data
   return Status::kOk;
 }
 
-bool RecordStore::good(const View& v) { return v.settled && v.read.kind == Kind::kValid; }
-
-// The slot to write: not the newest good one; never one that may hold the only good record.
+// The slot to write: the one worth less (sealed > valid > unreadable > nothing), of two sealed
+// or two valid ones the older; never one of two unreadable slots (either may hold the record).
 int RecordStore::choose_target(const View v[2]) {
-  const bool g0 = good(v[0]), g1 = good(v[1]);
-  if (g0 && g1) return later(v[0].read.sequence, v[1].read.sequence) ? 1 : 0;
-  if (g0 || g1) return g0 ? 1 : 0;
-  // A slot that read valid once, or could not be read, may hold the only good record.
-  const bool maybe0 = v[0].ever_valid || v[0].ever_unreadable;
-  const bool maybe1 = v[1].ever_valid || v[1].ever_unreadable;
-  if (!maybe0) return 0;
-  if (!maybe1) return 1;
-  return -1;
+  if (v[0].rank != v[1].rank) return v[0].rank < v[1].rank ? 0 : 1;
+  switch (v[0].rank) {
+    case Rank::kSealed:
+    case Rank::kValid:
+      return later(v[0].sequence, v[1].sequence) ? 1 : 0;
+    case Rank::kUnreadable:
+      return -1;
+    case Rank::kNothing:
+      break;
+  }
+  return 0;
 }
 
 Status RecordStore::save(const CalibrationRecord& record) {
@@ -199,29 +216,9 @@ Status RecordStore::save_locked(const CalibrationRecord& record) {
     if (enc != Status::kOk) return enc;
   }
   View v[2];
-  for (int k = 0; k < 2; ++k) v[k] = read_settled(k, nullptr);
-  // The slot kept must still read as it did right before the other one is erased. A kept slot
-  // that reads otherwise is read again until two reads agree: a misread passes, a torn slot is
-  // no longer taken for good and the choice is made again (at most once more).
-  int target = -1;
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    target = choose_target(v);
-    if (target < 0) return Status::kStorageError;  // both uncertain: erase neither
-    const int keep = 1 - target;
-    if (!good(v[keep])) break;
-    const Read again = read_once(keep, nullptr);
-    if (again.kind == Kind::kValid && again.sequence == v[keep].read.sequence &&
-        again.record_crc == v[keep].read.record_crc)
-      break;
-    const View before = v[keep];
-    v[keep] = read_settled(keep, nullptr);
-    v[keep].ever_valid = true;  // it did read valid: it may hold the only good record
-    if (good(v[keep]) && v[keep].read.sequence == before.read.sequence &&
-        v[keep].read.record_crc == before.read.record_crc)
-      break;
-    v[keep].settled = false;
-    if (attempt == 1) return Status::kStorageError;
-  }
+  for (int k = 0; k < 2; ++k) v[k] = scan(k, nullptr);
+  const int target = choose_target(v);
+  if (target < 0) return Status::kStorageError;  // both unreadable: erase neither
   const std::uint32_t seq = sequence_seen_ ? max_sequence_ + 1u : 1u;
 
   std::size_t size = 0;
@@ -234,6 +231,8 @@ Status RecordStore::save_locked(const CalibrationRecord& record) {
 
   const std::uint32_t base = slot_offset(target);
   const std::uint32_t commit_area = round_up(kCommitBytes, g.program_unit);
+  const std::uint32_t seal_at = base + commit_area + padded;
+  const std::uint32_t seal_area = round_up(kSealBytes, g.program_unit);
   slots_[target] = Slot{};
   // Erase from the slot's start: the commit's unit goes first, so the slot stops counting before
   // any of its record changes.
@@ -241,8 +240,9 @@ Status RecordStore::save_locked(const CalibrationRecord& record) {
     const Status s = flash_.erase(base + at);
     if (s != Status::kOk) return s == Status::kInvalidArgument ? s : Status::kStorageError;
   }
-  // The record first, the commit last, each program unit once.
+  // The record first, then the commit, then the seal, each program unit once.
   Status s = program_range(base + commit_area, buf_, padded);
+  std::uint32_t commit_crc = 0;
   if (s == Status::kOk) {
     std::uint8_t* c = buf_;  // the record is no longer needed in RAM: stage the commit
     std::memset(c, 0xFF, commit_area);
@@ -253,19 +253,29 @@ Status RecordStore::save_locked(const CalibrationRecord& record) {
     c[10] = static_cast<std::uint8_t>(kCommitTag & 0xFFu);
     c[11] = static_cast<std::uint8_t>(kCommitTag >> 8);
     store_u32(c + 12, record_crc);
-    store_u32(c + 16, crc32(c, 16));
+    commit_crc = crc32(c, 16);
+    store_u32(c + 16, commit_crc);
     s = program_range(base, c, commit_area);
   }
   if (s != Status::kOk) return s == Status::kInvalidArgument ? s : Status::kStorageError;
 
-  // Read back: the commit and the record it names.
-  const Read back = read_once(target, nullptr);
-  note_sequence(back);
-  if (back.kind == Kind::kUnreadable) return Status::kStorageError;
-  if (back.kind != Kind::kValid || back.sequence != seq || back.record_crc != record_crc)
-    return Status::kStorageVerifyFailed;
-  slots_[target].status = Status::kOk;
-  slots_[target].sequence = seq;
+  // The seal last: the commit and the record were programmed completely.
+  std::memset(buf_, 0xFF, seal_area);
+  stage_seal(buf_, commit_crc);
+  s = program_range(seal_at, buf_, seal_area);
+  if (s != Status::kOk) return s == Status::kInvalidArgument ? s : Status::kStorageError;
+
+  // Read back until one read finds the commit, the record it names and the seal (a burst of
+  // misreads passes).
+  bool readable = false, sealed = false;
+  for (int k = 0; k < kReadAttempts && !sealed; ++k) {
+    const Read back = read_once(target, nullptr, true);
+    note_sequence(back);
+    readable = readable || back.kind != Kind::kUnreadable;
+    sealed = back.kind == Kind::kSealed && back.sequence == seq && back.record_crc == record_crc;
+  }
+  if (!sealed) return readable ? Status::kStorageVerifyFailed : Status::kStorageError;
+  slots_[target] = Slot{Status::kOk, seq, true};
   return Status::kOk;
 }
 

@@ -11,7 +11,9 @@
 //     power_on().
 //   - A step can report a failure although it completed (report_failure_at_step()).
 //   - Reads can fail (fail_next_reads(): an ECC error) or return one flipped bit
-//     (flip_next_reads()) without anything on the flash being wrong: a misread.
+//     (flip_next_reads()) without anything on the flash being wrong: a misread. A burst of
+//     misreads can also hit one area alone (misread_area(): a marginal cell, a noisy supply
+//     while that area is read), up to two areas at once.
 #pragma once
 
 #include <cstdint>
@@ -40,7 +42,7 @@ class SimEccFlash final : public FlashRegion {
     std::memset(state_, kErased, sizeof state_);
     powered_ = true;
     cut_at_ = report_at_ = kNever;
-    fail_reads_ = flip_reads_ = 0;
+    clear_read_faults();
     steps_ = 0;
     double_programs_ = 0;
   }
@@ -55,6 +57,20 @@ class SimEccFlash final : public FlashRegion {
       return Status::kStorageError;
     }
     if (size == 0) return Status::kOk;
+    std::uint32_t flip_at[kAreas];
+    bool failed = false;
+    for (int k = 0; k < kAreas; ++k) {
+      Area& a = areas_[k];
+      flip_at[k] = kNever;
+      if (a.reads == 0 || offset >= a.offset + a.size || a.offset >= offset + size) continue;
+      --a.reads;
+      const std::uint32_t from = offset > a.offset ? offset : a.offset;
+      const std::uint32_t to =
+          offset + size < a.offset + a.size ? offset + size : a.offset + a.size;
+      failed = failed || a.fail;
+      flip_at[k] = from + (to - from) / 2 - offset;  // the middle of the part read
+    }
+    if (failed) return Status::kStorageError;
     for (std::uint32_t u = offset / Unit; u <= (offset + size - 1) / Unit; ++u)
       if (state_[u] == kTornEcc) return Status::kStorageError;
     std::memcpy(out, bytes_ + offset, size);
@@ -69,6 +85,8 @@ class SimEccFlash final : public FlashRegion {
       --flip_reads_;
       out[size / 2] = static_cast<std::uint8_t>(out[size / 2] ^ 0x04u);
     }
+    for (std::uint32_t at : flip_at)
+      if (at != kNever) out[at] = static_cast<std::uint8_t>(out[at] ^ 0x10u);
     return Status::kOk;
   }
 
@@ -120,6 +138,18 @@ class SimEccFlash final : public FlashRegion {
   void seed(std::uint32_t s) { rng_ = s != 0 ? s : 1u; }
   void fail_next_reads(int n) { fail_reads_ = n; }
   void flip_next_reads(int n) { flip_reads_ = n; }
+  // The next n reads touching [offset, offset + size) fail (fail: an ECC error) or return one
+  // flipped bit inside that area; other reads are right. Arms the first of two areas that has
+  // no reads left (the second if both have).
+  void misread_area(std::uint32_t offset, std::uint32_t size, int n, bool fail) {
+    Area& a = areas_[0].reads == 0 ? areas_[0] : areas_[1];
+    a = Area{offset, size, n, fail};
+  }
+  // Every read right from now on (fail_next_reads(), flip_next_reads(), misread_area()).
+  void clear_read_faults() {
+    fail_reads_ = flip_reads_ = 0;
+    for (Area& a : areas_) a = Area{};
+  }
   void power_on() {
     powered_ = true;
     cut_at_ = report_at_ = kNever;
@@ -138,6 +168,12 @@ class SimEccFlash final : public FlashRegion {
 
  private:
   enum : std::uint8_t { kErased, kProgrammed, kTornEcc, kTornArbitrary, kTornWeak };
+  static constexpr int kAreas = 2;
+  struct Area {  // a burst of misreads of one area
+    std::uint32_t offset = 0, size = 0;
+    int reads = 0;  // misreads left
+    bool fail = false;
+  };
 
   // Counts a step; true if the power fails in it (it sets *report if it must report a failure).
   bool step(bool* report) {
@@ -186,6 +222,7 @@ class SimEccFlash final : public FlashRegion {
   std::uint32_t steps_ = 0;
   std::uint32_t rng_ = 0x9E3779B9u;
   int fail_reads_ = 0, flip_reads_ = 0;
+  Area areas_[kAreas];
   int programs_ = 0, erases_ = 0, double_programs_ = 0;
 };
 
