@@ -5,7 +5,9 @@
 # estimator's long tests run on the host and on one target per architecture, the M4F and RV32;
 # the other targets run the tests of what can differ between targets and the example firmware.
 # The cross builds also prove "no heap" at link time and print sizes; consumers, fuzzing and the
-# instruction counts (M4F and RV32) follow. Each step prints its wall time.
+# instruction counts (M4F and RV32) follow. Each step prints its wall time. It ends with every
+# test that skipped and why (ctest reports a test whose cases all skipped as "Skipped"); where the
+# real recordings are beside the clone, a test skipped for want of one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
@@ -17,7 +19,7 @@ step() {  # step NAME: closes the previous step (its time) and opens the next
 }
 
 step "set up"
-tools/setup_debian.sh
+tools/setup_debian.sh host cross checks
 
 # A compiler cache in build/ccache: the consumers' builds compile the library's sources again
 # with the same flags, and a second run of this script compiles only what changed.
@@ -81,4 +83,10 @@ bench/run_insn_bench.sh rv32
 step "whole-process time of imucal calibrate on the xsens recording"
 bench/cli_time.sh
 command -v ccache >/dev/null && ccache --show-stats | grep -E "^(Cacheable calls|  Hits|  Misses):" || true
+
+step "what was skipped, and why"
+data_flag=()
+[ "$require_xsens" = ON ] && data_flag=(--data-present)
+tools/skipped_tests.py "${data_flag[@]}" build/host build/host-asan build/m4f build/m7 build/m33 \
+  build/m3 build/m0plus build/rv32
 step "done"
