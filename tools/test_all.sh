@@ -55,10 +55,19 @@ for preset in host host-asan m4f m7 m33 m3 m0plus rv32; do
   ctest --preset "$preset"
 done
 
-# imucal from outside: add_subdirectory, FetchContent and find_package on the host; the
-# Cortex-M4F through FetchContent (its toolchain file carried into the fetched build).
+# imucal from outside: add_subdirectory, FetchContent, find_package, pkg-config and a strict
+# sysroot on the host; the Cortex-M4F through FetchContent (its toolchain file carried into the
+# fetched build), and a top-level configure for it builds the library alone.
 step "consumers"
-tools/test_consumers.sh host:subdirectory,fetchcontent,package m4f:fetchcontent
+tools/test_consumers.sh host:subdirectory,fetchcontent,package,pkgconfig,sysroot m4f:fetchcontent
+
+# The ecosystems' manifests against their formats, the Zephyr module with Zephyr's Kconfig tool
+# and its CMake file, and the Arduino layout's sketch built as the Arduino build does it for a
+# SAMD21 and run under QEMU. (Debian's python3: pykwalify and kconfiglib are Debian packages.)
+step "ecosystems: Zephyr, PlatformIO, ESP-IDF, Arduino"
+/usr/bin/python3 tests/zephyr/check_module.py
+/usr/bin/python3 tools/check_manifests.py
+tools/arduino/build_sketch.sh
 
 # No heap with and without -flto at -Os, -O2 and -O3 on the Cortex-M4F, and at -Os on every
 # other target (every target's preset build proves it at -O2 without LTO).

@@ -9,8 +9,8 @@
 #   sysroot    find_package(imucal) with CMAKE_FIND_ROOT_PATH_MODE_PACKAGE ONLY, imucal installed
 #              in the sysroot and Eigen not: fails on Eigen3 until Eigen3_DIR names its package,
 #              as docs/consuming.md says
-# The installed build of the M4F is configured without imucal's IMUCAL_BUILD_* options: a
-# top-level cross configure compiles the library alone.
+# With the M4F, a top-level configure for its toolchain without imucal's IMUCAL_BUILD_* options
+# must build the library alone (the installed M4F library is built that way too).
 #   tools/test_consumers.sh                                 every way, host and M4F
 #   tools/test_consumers.sh host:package m4f:fetchcontent   chosen platforms and ways
 set -euo pipefail
@@ -41,10 +41,27 @@ run() {  # run PLATFORM PROGRAM
 
 count_objects() { find "$1" -name '*.o' -o -name '*.obj' | wc -l; }
 
+# A top-level configure for a cross toolchain, none of the IMUCAL_BUILD_* options given: the
+# library alone (configure only: the build's targets are the part libraries).
+cross_defaults() {
+  local b="$work/cross-defaults"
+  cmake -S . -B "$b" -G Ninja -DCMAKE_TOOLCHAIN_FILE="$src/tests/consumer/cortex-m4f.cmake" \
+    >/dev/null
+  local extra
+  extra=$(ninja -C "$b" -t targets all | grep -E "^[A-Za-z0-9_]+: " | cut -d: -f1 |
+    grep -vE "^((cmake_object_order_depends_target_)?imucal_(core|calibrator|magnetometer|temperature|store)|all|clean|help|edit_cache|rebuild_cache|install.*|list_install_components|test)$" || true)
+  if [ -n "$extra" ]; then
+    echo "a top-level cross configure builds more than the library: $extra"
+    exit 1
+  fi
+  echo "== top-level cross configure: the library's parts alone"
+}
+
 configs=("$@")
 [ ${#configs[@]} -gt 0 ] ||
   configs=(host:subdirectory,fetchcontent,package,pkgconfig,sysroot
            m4f:subdirectory,fetchcontent,package)
+[[ " ${configs[*]}" == *" m4f:"* ]] && cross_defaults
 for config in "${configs[@]}"; do
   platform=${config%%:*}
   IFS=, read -ra modes <<<"${config#*:}"
