@@ -28,7 +28,7 @@ for config in "${configs[@]}"; do
     dir="build/footprint/$target$level${flags:+-$(tr -c 'A-Za-z0-9_=\n-' _ <<<"$flags")}"
     cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE= \
       -DCMAKE_TOOLCHAIN_FILE="$PWD/toolchains/${toolchain[$target]}.cmake" \
-      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF \
+      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF -DIMUCAL_BUILD_BENCH=ON \
       -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
       -DIMUCAL_FOOTPRINT_OPT="$level${flags:+;$flags}" -DIMUCAL_FOOTPRINT_LTO=OFF >/dev/null
     for parts in 1 2 3 4 5; do

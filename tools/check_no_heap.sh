@@ -20,7 +20,7 @@ for config in "${configs[@]}"; do
     echo "== no heap: $target $level, with and without -flto"
     cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE= \
       -DCMAKE_TOOLCHAIN_FILE="$PWD/toolchains/${toolchain[$target]}.cmake" \
-      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF \
+      -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF -DIMUCAL_BUILD_BENCH=ON \
       -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
       -DIMUCAL_FOOTPRINT_OPT="$level" -DIMUCAL_FOOTPRINT_LTO=ON >/dev/null
     if ! cmake --build "$dir" --target imucal_footprint imucal_footprint_lto >"$dir/build.log" 2>&1

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# The main job: set up, build the `imucal` command, and calibrate the bundled simulated recording
-# (raw 16-bit counts, hand-turned poses, known truth) with the float streaming calibrator, as on
-# the device; then compare with the truth and write the JSON, the firmware header and the report
-# page into build/demo/.
+# The main job: set up the host packages (tools/setup_debian.sh host: no cross toolchain, QEMU or
+# GCC source), build the `imucal` command, and calibrate the bundled simulated recording (raw
+# 16-bit counts, hand-turned poses, known truth) with the float streaming calibrator, as on the
+# device; then compare with the truth and write the JSON, the firmware header and the report page
+# into build/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-tools/setup_debian.sh
+tools/setup_debian.sh host
 cmake --preset host >/dev/null
 cmake --build --preset host --target imucal_tool >/dev/null
 mkdir -p build/demo

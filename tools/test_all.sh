@@ -5,7 +5,9 @@
 # estimator's long tests run on the host and on one target per architecture, the M4F and RV32;
 # the other targets run the tests of what can differ between targets and the example firmware.
 # The cross builds also prove "no heap" at link time and print sizes; consumers, fuzzing and the
-# instruction counts (M4F and RV32) follow. Each step prints its wall time.
+# instruction counts (M4F and RV32) follow. Each step prints its wall time. It ends with every
+# test that skipped and why (ctest reports a test whose cases all skipped as "Skipped"); where the
+# real recordings are beside the clone, a test skipped for want of one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
@@ -17,7 +19,7 @@ step() {  # step NAME: closes the previous step (its time) and opens the next
 }
 
 step "set up"
-tools/setup_debian.sh
+tools/setup_debian.sh host cross checks
 
 # A compiler cache in build/ccache: the consumers' builds compile the library's sources again
 # with the same flags, and a second run of this script compiles only what changed.
@@ -53,10 +55,19 @@ for preset in host host-asan m4f m7 m33 m3 m0plus rv32; do
   ctest --preset "$preset"
 done
 
-# imucal from outside: add_subdirectory, FetchContent and find_package on the host; the
-# Cortex-M4F through FetchContent (its toolchain file carried into the fetched build).
+# imucal from outside: add_subdirectory, FetchContent, find_package, pkg-config and a strict
+# sysroot on the host; the Cortex-M4F through FetchContent (its toolchain file carried into the
+# fetched build), and a top-level configure for it builds the library alone.
 step "consumers"
-tools/test_consumers.sh host:subdirectory,fetchcontent,package m4f:fetchcontent
+tools/test_consumers.sh host:subdirectory,fetchcontent,package,pkgconfig,sysroot m4f:fetchcontent
+
+# The ecosystems' manifests against their formats, the Zephyr module with Zephyr's Kconfig tool
+# and its CMake file, and the Arduino layout's sketch built as the Arduino build does it for a
+# SAMD21 and run under QEMU. (Debian's python3: pykwalify and kconfiglib are Debian packages.)
+step "ecosystems: Zephyr, PlatformIO, ESP-IDF, Arduino"
+/usr/bin/python3 tests/zephyr/check_module.py
+/usr/bin/python3 tools/check_manifests.py
+tools/arduino/build_sketch.sh
 
 # No heap with and without -flto at -Os, -O2 and -O3 on the Cortex-M4F, and at -Os on every
 # other target (every target's preset build proves it at -O2 without LTO).
@@ -81,4 +92,10 @@ bench/run_insn_bench.sh rv32
 step "whole-process time of imucal calibrate on the xsens recording"
 bench/cli_time.sh
 command -v ccache >/dev/null && ccache --show-stats | grep -E "^(Cacheable calls|  Hits|  Misses):" || true
+
+step "what was skipped, and why"
+data_flag=()
+[ "$require_xsens" = ON ] && data_flag=(--data-present)
+tools/skipped_tests.py "${data_flag[@]}" build/host build/host-asan build/m4f build/m7 build/m33 \
+  build/m3 build/m0plus build/rv32
 step "done"

@@ -21,3 +21,4 @@
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/stream/rest_monitor.hpp"
 #include "imucal/temperature/temperature_fit.hpp"
+#include "imucal/version.hpp"

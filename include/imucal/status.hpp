@@ -4,6 +4,8 @@
 
 #include <cstdint>
 
+#include "imucal/config.hpp"
+
 namespace imucal {
 
 enum class Status : std::uint8_t {

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <limits>
 
+#include "imucal/config.hpp"
+
 namespace imucal {
 
 template <typename Scalar>

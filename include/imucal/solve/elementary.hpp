@@ -10,6 +10,8 @@
 #include <cstring>
 #include <limits>
 
+#include "imucal/config.hpp"
+
 namespace imucal {
 namespace detail {
 

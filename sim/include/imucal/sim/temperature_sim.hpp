@@ -20,11 +20,11 @@
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/gyro_model.hpp"
 #include "imucal/models/temperature_model.hpp"
-#include "imucal/stream/rest_summary.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "imucal/sim/random.hpp"
 #include "imucal/stream/gyro_segment.hpp"
+#include "imucal/stream/rest_summary.hpp"
 
 namespace imucal::sim {
 
