@@ -157,6 +157,9 @@ struct LifePhase {
   Vector3<double> gyro_step_dps = Vector3<double>::Zero();  // kKnock: bias steps (added to the
   Vector3<double> accel_step_mg = Vector3<double>::Zero();  //   raw reading's bias)
   double knock_angle = 0.05;  // kKnock: net rotation left by the knock, rad
+  // kHand: the rotation rate's standard deviation per axis (rad/s) and correlation time (s);
+  // 0: a calm hand (0.3 rad/s, 0.8 s).
+  double hand_rate_rad_s = 0.0, hand_tau_s = 0.0;
 };
 
 struct HardIronStep {
@@ -590,8 +593,10 @@ class LifeSimulator {
       case PhaseKind::kPocket: {
         HandRotation::Options o;
         o.rate_hz = plan_.sensors.rate_hz;
-        o.rate_rad_s = p.kind == PhaseKind::kHand ? 0.3 : 0.15;
-        o.tau_s = p.kind == PhaseKind::kHand ? 0.8 : 2.0;
+        o.rate_rad_s = p.kind == PhaseKind::kPocket ? 0.15
+                       : p.hand_rate_rad_s > 0.0    ? p.hand_rate_rad_s
+                                                    : 0.3;
+        o.tau_s = p.kind == PhaseKind::kPocket ? 2.0 : p.hand_tau_s > 0.0 ? p.hand_tau_s : 0.8;
         hand_.emplace(o, mag_world(mag_), rng_);
         hand_prev_ = hand_->attitude();
         if (p.kind == PhaseKind::kHand) {
@@ -835,6 +840,15 @@ class PlanBuilder {
     p.duration_s = d;
     add(p);
   }
+  // A brisk gesture in the hand (turning the phone over, a figure eight): a fast tumble.
+  void gesture(double d) {
+    LifePhase p;
+    p.kind = PhaseKind::kHand;
+    p.duration_s = d;
+    p.hand_rate_rad_s = 2.0;
+    p.hand_tau_s = 0.3;
+    add(p);
+  }
   // A steady turn about the vertical at a rate of either sign, |rate| in `dps`.
   void turn(Span dps, double d, double speed = 0.0) {
     LifePhase p;
@@ -982,7 +996,8 @@ inline LifePlan desk_life(std::uint64_t seed, double hours, const LifeOptions& o
 }
 
 // A phone carried: hand-held use and walking with it in a pocket for long spells, held still in
-// the hand now and then (tremor), put on a table sometimes, on a nightstand at night.
+// the hand now and then (tremor), turned briskly now and then, put on a table sometimes, on a
+// nightstand at night.
 inline LifePlan handheld_life(std::uint64_t seed, double hours, const LifeOptions& o = {}) {
   using namespace life_detail;
   Random rng(seed ^ 0x4A4Dull);
@@ -1006,6 +1021,7 @@ inline LifePlan handheld_life(std::uint64_t seed, double hours, const LifeOption
     const double u = rng.uniform();
     if (u < 0.4) {
       b.simple(PhaseKind::kHand, b.log_uniform({60.0, 1200.0}));
+      if (rng.uniform() < 0.2) b.gesture(b.uniform({3.0, 15.0}));
       const int holds = 1 + static_cast<int>(rng.uniform(0.0, 3.0));
       for (int i = 0; i < holds; ++i) {
         b.simple(PhaseKind::kHandRest, b.uniform({5.0, 60.0}));
