@@ -3,9 +3,12 @@
 // counts' saturation, the steady turns, the events), and a seed gives one stream.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
+#include <string>
+#include <tuple>
 #include <vector>
 
 #include "imucal/models/accel_model.hpp"
