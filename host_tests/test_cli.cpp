@@ -427,8 +427,9 @@ TEST(CliHeader, CompilesAsCAndAppliesTheModel) {
   const Json r = read_json(json);
   AccelVector<double> pa;
   GyroVector<double> pg;
-  for (int k = 0; k < 9; ++k) pa(k) = r["accelerometer"]["parameters"][kAccelNames[k]]["value"];
-  for (int k = 0; k < 12; ++k) pg(k) = r["gyroscope"]["parameters"][kGyroNames[k]]["value"];
+  for (int k = 0; k < 9; ++k)
+    pa(k) = r["accelerometer"]["parameters"][kAccelParamNames[k]]["value"];
+  for (int k = 0; k < 12; ++k) pg(k) = r["gyroscope"]["parameters"][kGyroParamNames[k]]["value"];
   const Vector3<double> a_cal = accel_apply(pa, Vector3<double>(33000, 31000, 36000));
   const Vector3<double> w_cal = gyro_apply(pg, Vector3<double>(33100, 32500, 32200));
   for (int i = 0; i < 3; ++i) {
@@ -889,14 +890,17 @@ TEST(CliRecord, WrittenDecodedAndPrinted) {
     const Json r = read_json(json);
     EXPECT_EQ(static_cast<int>(rec.calibration.quality), r["quality"] == "good" ? 3 : 2);
     for (int k = 0; k < 9; ++k) {
-      const Json& p = r["accelerometer"]["parameters"][kAccelNames[k]];
-      EXPECT_FLOAT_EQ(rec.calibration.accel.params(k), p["value"].get<float>()) << kAccelNames[k];
-      EXPECT_FLOAT_EQ(rec.calibration.accel.sigma(k), p["sigma"].get<float>()) << kAccelNames[k];
+      const Json& p = r["accelerometer"]["parameters"][kAccelParamNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.params(k), p["value"].get<float>())
+          << kAccelParamNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.sigma(k), p["sigma"].get<float>())
+          << kAccelParamNames[k];
     }
     for (int k = 0; k < 12; ++k) {
-      const Json& p = r["gyroscope"]["parameters"][kGyroNames[k]];
-      EXPECT_FLOAT_EQ(rec.calibration.gyro.params(k), p["value"].get<float>()) << kGyroNames[k];
-      EXPECT_FLOAT_EQ(rec.calibration.gyro.sigma(k), p["sigma"].get<float>()) << kGyroNames[k];
+      const Json& p = r["gyroscope"]["parameters"][kGyroParamNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.params(k), p["value"].get<float>())
+          << kGyroParamNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.sigma(k), p["sigma"].get<float>()) << kGyroParamNames[k];
     }
   }
 
@@ -911,13 +915,13 @@ TEST(CliRecord, WrittenDecodedAndPrinted) {
   ASSERT_EQ(decode_record(bytes.data(), bytes.size(), rec), Status::kOk);
   char line[128];
   for (int k = 0; k < 12; ++k) {
-    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kGyroNames[k],
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kGyroParamNames[k],
                   static_cast<double>(rec.calibration.gyro.params(k)),
                   static_cast<double>(rec.calibration.gyro.sigma(k)));
     EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;
   }
   for (int k = 0; k < 9; ++k) {
-    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kAccelNames[k],
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kAccelParamNames[k],
                   static_cast<double>(rec.calibration.accel.params(k)),
                   static_cast<double>(rec.calibration.accel.sigma(k)));
     EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;

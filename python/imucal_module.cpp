@@ -11,6 +11,8 @@
 
 #include "cli.hpp"
 #include "imucal/corrector.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
 #include "imucal/store/record.hpp"
 
 namespace py = pybind11;
@@ -160,12 +162,11 @@ py::list as_list(const V& v) {
 
 py::dict decode_record(const py::bytes& data) {
   const imucal::CalibrationRecord r = decode(data);
-  static const char* const kQuality[] = {"none", "poor", "fair", "good"};
   py::dict d;
   d["version"] = r.version;
   d["device_id"] = r.device_id;
   d["sensor_id"] = r.sensor_id;
-  d["quality"] = kQuality[static_cast<int>(r.calibration.quality)];
+  d["quality"] = imucal::to_string(r.calibration.quality);
   if (r.parts & imucal::kRecordAccel)
     d["accelerometer"] = py::dict(py::arg("parameters") = as_list(r.calibration.accel.params),
                                   py::arg("sigma") = as_list(r.calibration.accel.sigma));
@@ -231,6 +232,13 @@ PYBIND11_MODULE(imucal, m) {
   m.doc() =
       "imucal: accelerometer, gyroscope and magnetometer calibration from a hand-turned "
       "recording (the library's streaming calibrator, as the imucal command runs it).";
+  // The parameters' names in the order of decode_record()'s lists: the keys of calibrate()'s
+  // "parameters" dicts.
+  py::list accel_names, gyro_names;
+  for (const char* name : imucal::kAccelParamNames) accel_names.append(name);
+  for (const char* name : imucal::kGyroParamNames) gyro_names.append(name);
+  m.attr("ACCEL_PARAMETERS") = py::tuple(accel_names);
+  m.attr("GYRO_PARAMETERS") = py::tuple(gyro_names);
   m.def("calibrate", &calibrate, py::arg("acc") = py::none(), py::arg("gyro") = py::none(),
         py::kw_only(), py::arg("t") = py::none(), py::arg("mag") = py::none(),
         py::arg("temp") = py::none(),

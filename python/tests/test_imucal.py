@@ -4,6 +4,7 @@ import json
 import math
 import os
 import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 import imucal
 
 SOURCE = os.environ.get("IMUCAL_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
+sys.path.insert(0, os.path.join(SOURCE, "tools"))
+import read_record  # noqa: E402  (tools/read_record.py: the record read by Python alone)
 TOOL = os.environ.get("IMUCAL_TOOL", os.path.join(SOURCE, "build", "host", "tools", "imucal"))
 XSENS = os.environ.get("IMUCAL_XSENS_DIR", os.path.join(SOURCE, "..", "shared", "data", "xsens"))
 BUNDLED = os.path.join(SOURCE, "data", "simulated_imu.csv")
@@ -126,8 +129,7 @@ def test_record_and_corrector_apply_the_calibration():
     rec = imucal.decode_record(py["record"])
     assert rec["quality"] == "good"
     p = py["accelerometer"]["parameters"]
-    params = [p[k]["value"] for k in ("alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z",
-                                      "b_x", "b_y", "b_z")]
+    params = [p[k]["value"] for k in imucal.ACCEL_PARAMETERS]
     for got, want in zip(rec["accelerometer"]["parameters"], params):
         assert math.isclose(got, want, rel_tol=1e-6, abs_tol=1e-6 * max(1.0, abs(want)))
     # The corrector turns every pose's mean into gravity's magnitude (the poses' residual).
@@ -141,6 +143,21 @@ def test_record_and_corrector_apply_the_calibration():
         norms.append(np.linalg.norm(a_cal[inside].mean(axis=0)))
     rms = math.sqrt(np.mean((np.array(norms) - g) ** 2))
     assert rms < 3 * py["accelerometer"]["residual_mps2"]["pose_rms_after"] + 1e-4
+
+
+def test_parameter_names_are_the_librarys_everywhere():
+    """The library's names (kAccelParamNames, kGyroParamNames) are the JSON's keys, in order, and
+    tools/read_record.py, which cannot include the header, has the same lists."""
+    t, acc, gyro, temp, mag, settings = bundled_arrays()
+    py = imucal.calibrate(acc, gyro, t=t, temp=temp, mag=mag, **settings)
+    assert len(imucal.ACCEL_PARAMETERS) == 9 and len(imucal.GYRO_PARAMETERS) == 12
+    assert list(py["accelerometer"]["parameters"]) == list(imucal.ACCEL_PARAMETERS)
+    assert list(py["gyroscope"]["parameters"]) == list(imucal.GYRO_PARAMETERS)
+    assert read_record.ACCEL_NAMES == list(imucal.ACCEL_PARAMETERS)
+    assert read_record.GYRO_NAMES == list(imucal.GYRO_PARAMETERS)
+    rec = read_record.read_record(py["record"])
+    assert list(rec["accelerometer"]["params"]) == list(imucal.ACCEL_PARAMETERS)
+    assert rec["quality"] == 3 and py["quality"] == "good"
 
 
 def test_what_the_command_refuses_raises_with_the_reason():

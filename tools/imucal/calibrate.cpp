@@ -22,12 +22,6 @@
 
 namespace imucal::cli {
 
-const char* const kAccelNames[9] = {"alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y",
-                                    "s_z",      "b_x",      "b_y",      "b_z"};
-const char* const kGyroNames[12] = {"gamma_yz", "gamma_zy", "gamma_zx", "gamma_xz",
-                                    "gamma_xy", "gamma_yx", "s_x",      "s_y",
-                                    "s_z",      "b_x",      "b_y",      "b_z"};
-
 namespace {
 
 // Shows how far the reading is, on a terminal only (stderr), at most every 64k samples.
@@ -94,20 +88,6 @@ double mag_unit_ut(const Options& o) {
       return 1.0 / o.mag_lsb_per_ut;  // NaN if not given
   }
   return kNaN;
-}
-
-const char* quality_name(Quality q) {
-  switch (q) {
-    case Quality::kGood:
-      return "good";
-    case Quality::kFair:
-      return "fair";
-    case Quality::kPoor:
-      return "poor";
-    case Quality::kNone:
-      return "none";
-  }
-  return "none";
 }
 
 // The angle between two directions, in degrees (stable for small and for near-opposite ones).
@@ -335,10 +315,6 @@ struct RangeWatch {
 const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
 const char* const kAxisNamesXyz[3] = {"x", "y", "z"};
 
-std::string plural(long n, const char* one, const char* many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
 // A misalignment the poses did not determine (held at 0) and a weak parameter, by name, with
 // the orientations that would pin it down.
 template <typename Scalar>
@@ -487,7 +463,7 @@ void finish_magnetometer(MagCal<Scalar>& mag, const Options& o,
     m.coverage = static_cast<double>(mc.coverage);
     m.samples = mc.samples;
     m.iterations = mc.iterations;
-    m.quality = quality_name(mc.quality);
+    m.quality = to_string(mc.quality);
     m.rests = mag.rests();
     if (m.aligned) {
       m.dip_deg = static_cast<double>(mc.dip_deg);
@@ -620,7 +596,7 @@ int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
   // Quality: good with every face up in some pose, fair otherwise (the stream's noise test
   // needs the samples of each rest, which a file of means does not hold).
   c.quality = !run.accel_ok ? Quality::kNone : faces == 0x3f ? Quality::kGood : Quality::kFair;
-  run.quality = quality_name(c.quality);
+  run.quality = to_string(c.quality);
   run.quality_level = static_cast<int>(c.quality);
   run.usable = run.accel_ok;
   if (!run.accel_ok) {
@@ -1043,7 +1019,7 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.gyro_ok = succeeded(c.gyro.status);
   run.gyro_iterations = c.gyro.iterations;
   run.gyro_bias_refined = c.gyro.bias_refined;
-  run.quality = quality_name(c.quality);
+  run.quality = to_string(c.quality);
   run.quality_level = static_cast<int>(c.quality);
   run.quality_reason = cal.quality_reason();
   if (!run.has_gyro) run.gyro_status = "not in the input";

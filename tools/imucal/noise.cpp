@@ -236,12 +236,6 @@ std::string kalibr_yaml(const SensorNoise* gyro, const SensorNoise* acc, double 
 
 constexpr const char* kAxisColour[3] = {"#d62728", "#2ca02c", "#1f77b4"};
 
-std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, f, a, b, c, d);
-  return buf;
-}
-
 // Log-log panel at (x0, y0) of size w x h: the Allan deviation of each axis (points, 68 %
 // bars), the fitted terms' asymptotes (dashed) and the fitted model (thin line).
 std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, double h) {
@@ -261,24 +255,27 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
            std::log10(v) <= ly1;
   };
   std::string o;
-  o += fmt("<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", x0,
-           y0, w, h);
+  o += format_text(
+      "<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", x0, y0, w,
+      h);
   for (double e = lx0; e <= lx1; e += 1) {
     const double x = X(std::pow(10.0, e));
-    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x, y0, x, y0 + h);
-    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>1e%g</text>\n", x,
-             y0 + h + 14, e);
+    o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x, y0, x,
+                     y0 + h);
+    o += format_text("<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>1e%g</text>\n", x,
+                     y0 + h + 14, e);
   }
   for (double e = ly0; e <= ly1; e += 1) {
     const double y = Y(std::pow(10.0, e));
-    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x0, y, x0 + w, y);
-    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>1e%g</text>\n", x0 - 4,
-             y + 4, e);
+    o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x0, y,
+                     x0 + w, y);
+    o += format_text("<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>1e%g</text>\n",
+                     x0 - 4, y + 4, e);
   }
-  o += "<text x='" + fmt("%.1f", x0 + w / 2) + "' y='" + fmt("%.1f", y0 + h + 30) +
+  o += "<text x='" + format_text("%.1f", x0 + w / 2) + "' y='" + format_text("%.1f", y0 + h + 30) +
        "' font-size='12' text-anchor='middle'>tau [s]</text>\n";
-  o += "<text x='" + fmt("%.1f", x0) + "' y='" + fmt("%.1f", y0 - 8) + "' font-size='14'>" +
-       s.name + ": Allan deviation [" + s.unit +
+  o += "<text x='" + format_text("%.1f", x0) + "' y='" + format_text("%.1f", y0 - 8) +
+       "' font-size='14'>" + s.name + ": Allan deviation [" + s.unit +
        "], 68 % intervals; dashed: the fitted terms' asymptotes (Q, N, B, K)</text>\n";
   const int steps = 60;
   for (int a = 0; a < 3; ++a) {
@@ -297,7 +294,7 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
                          : term == 2 ? 0.6642824702679265 * c
                                      : c * std::sqrt(tau / 3);
         if (!inside(tau, v)) continue;
-        path += (path.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+        path += (path.empty() ? "M" : "L") + format_text("%.1f,%.1f ", X(tau), Y(v));
       }
       if (!path.empty())
         o += "<path d='" + path + "' fill='none' stroke='" + kAxisColour[a] +
@@ -309,7 +306,7 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
       const double v = std::sqrt(3 * q * q / (tau * tau) + n * n / tau +
                                  0.4412712003053032 * b * b + k * k * tau / 3);
       if (!inside(tau, v)) continue;
-      model += (model.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+      model += (model.empty() ? "M" : "L") + format_text("%.1f,%.1f ", X(tau), Y(v));
     }
     if (!model.empty())
       o += "<path d='" + model + "' fill='none' stroke='" + kAxisColour[a] +
@@ -320,18 +317,19 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
       if (!inside(p.tau, v)) continue;
       const double lo = std::max(p.adev_lo(a), std::pow(10.0, ly0));
       const double hi = std::min(p.adev_hi(a), std::pow(10.0, ly1));
-      o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' ", X(p.tau), Y(lo), X(p.tau), Y(hi)) +
+      o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' ", X(p.tau), Y(lo), X(p.tau),
+                       Y(hi)) +
            "stroke='" + kAxisColour[a] + "'/>\n";
-      o += fmt("<circle cx='%.1f' cy='%.1f' r='2.2' ", X(p.tau), Y(v)) + "fill='" + kAxisColour[a] +
-           "'/>\n";
+      o += format_text("<circle cx='%.1f' cy='%.1f' r='2.2' ", X(p.tau), Y(v)) + "fill='" +
+           kAxisColour[a] + "'/>\n";
     }
     const char* names = "xyz";
     auto shown = [](const NoiseTerm<double>& x) {
-      return x.significant ? fmt("%.3e", x.value) : std::string("ns");
+      return x.significant ? format_text("%.3e", x.value) : std::string("ns");
     };
-    o += fmt("<text x='%.1f' y='%.1f' font-size='12' ", x0 + w - 400, y0 + 18 + 16 * a) + "fill='" +
-         kAxisColour[a] + "'>" + names[a] + ": N " + shown(t.n) + ", K " + shown(t.k) + ", B " +
-         shown(t.b) + ", Q " + shown(t.q) + " (ns: not significant)</text>\n";
+    o += format_text("<text x='%.1f' y='%.1f' font-size='12' ", x0 + w - 400, y0 + 18 + 16 * a) +
+         "fill='" + kAxisColour[a] + "'>" + names[a] + ": N " + shown(t.n) + ", K " + shown(t.k) +
+         ", B " + shown(t.b) + ", Q " + shown(t.q) + " (ns: not significant)</text>\n";
   }
   return o;
 }
@@ -341,10 +339,10 @@ std::string noise_svg(const SensorNoise* sensors, const bool* present, const std
   int panels = 0;
   for (int s = 0; s < 2; ++s) panels += present[s] ? 1 : 0;
   const double height = 60 + panels * (panel_h + 80);
-  std::string o =
-      fmt("<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' "
-          "font-family='sans-serif'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
-          w + 120, height);
+  std::string o = format_text(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' "
+      "font-family='sans-serif'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
+      w + 120, height);
   std::string title = "imucal noise: " + file;
   std::string escaped;
   for (char c : title) escaped += c == '<' ? "&lt;" : c == '&' ? "&amp;" : std::string(1, c);

@@ -92,17 +92,6 @@ void print_params(std::FILE* out, const char* const* names, const double* p, con
                  param_unit(k, scale_index, unit, out_unit).c_str());
 }
 
-std::string plural_of(long n, const char* one, const char* many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
-std::string fmt(const char* format, double v) {
-  if (!std::isfinite(v)) return "n/a";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, v);
-  return buf;
-}
-
 // "[x, y, z] +- [sx, sy, sz]" with one format.
 std::string vec_pm(const double* v, const double* sd, const char* format) {
   std::string r = "[";
@@ -122,7 +111,7 @@ void print_mag_summary(const Run& run, const Options& o, std::FILE* out) {
   std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
   std::fprintf(out, "  status: %s; %ld readings, %d held (one per direction cell), %d fitted, %s\n",
                m.status.c_str(), m.readings, static_cast<int>(m.held.size()), m.samples,
-               plural_of(m.iterations, "iteration", "iterations").c_str());
+               plural(m.iterations, "iteration", "iterations").c_str());
   if (m.readings == 0) return;
   std::fprintf(out,
                "  coverage %s %% of the directions (needs %.0f %%), field %s uT (accepted %g .. "
@@ -254,23 +243,23 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  run.has_gyro ? "" : " (accelerometer alone)");
     if (run.has_gyro) {
       std::fprintf(out, "         %s between poses, stored as %s (the device's fixed memory)\n",
-                   plural_of(run.moves, "turn", "turns").c_str(),
-                   plural_of(run.segments, "gyro segment", "gyro segments").c_str());
+                   plural(run.moves, "turn", "turns").c_str(),
+                   plural(run.segments, "gyro segment", "gyro segments").c_str());
       if (run.coarsenings > 0)
         std::fprintf(out,
                      "         segment store full: adjacent segments merged %s to fit it (exact "
                      "sums of the turn statistics; each merge coarsens the integration of one "
                      "turn slightly)\n",
-                     plural_of(run.coarsenings, "time", "times").c_str());
+                     plural(run.coarsenings, "time", "times").c_str());
       if (run.moves_dropped > 0)
         std::fprintf(out,
                      "         %s not used for the gyroscope (across a gap, a frozen or saturated "
                      "sensor, a full pose store, or the end while turning)\n",
-                     plural_of(run.moves_dropped, "turn", "turns").c_str());
+                     plural(run.moves_dropped, "turn", "turns").c_str());
     }
     if (run.rests_too_short > 0)
       std::fprintf(out, "         %s shorter than --min-rest (%g s): %s\n",
-                   plural_of(run.rests_too_short, "rest", "rests").c_str(), o.min_rest,
+                   plural(run.rests_too_short, "rest", "rests").c_str(), o.min_rest,
                    run.rests_too_short == 1 ? "not a pose" : "not poses");
     for (const StreamEvent& e : run.events)
       std::fprintf(out, "         %s: %ld samples (first at t = %.3f s)\n", e.status.c_str(),
@@ -305,7 +294,7 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                    "  %s split by a short motion that left the orientation as it was (a bump): "
                    "each part is a pose; a detector that smooths over the bump (imu_tk's) sees "
                    "%zu rests\n",
-                   plural_of(split, "rest was", "rests were").c_str(),
+                   plural(split, "rest was", "rests were").c_str(),
                    run.pose_list.size() - static_cast<std::size_t>(split));
   }
 
@@ -313,19 +302,18 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
   if (!run.has_accel) {
     std::fprintf(out, "\naccelerometer  not in the input\n");
   } else {
-    std::fprintf(out, "\naccelerometer  %s\n  status: %s%s\n", kAccelModel,
-                 run.accel_status.c_str(),
-                 !run.accel_ok ? ""
-                 : run.accel_iterations == 0
-                     ? " (closed-form start, no refinement needed)"
-                     : (" (closed-form start refined in " +
-                        plural_of(run.accel_iterations, "Levenberg-Marquardt iteration",
-                                  "Levenberg-Marquardt iterations") +
-                        ")")
-                           .c_str());
+    std::fprintf(
+        out, "\naccelerometer  %s\n  status: %s%s\n", kAccelModel, run.accel_status.c_str(),
+        !run.accel_ok               ? ""
+        : run.accel_iterations == 0 ? " (closed-form start, no refinement needed)"
+                                    : (" (closed-form start refined in " +
+                                       plural(run.accel_iterations, "Levenberg-Marquardt iteration",
+                                              "Levenberg-Marquardt iterations") +
+                                       ")")
+                                          .c_str());
   }
   if (run.accel_ok) {
-    print_params(out, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9, 3, au,
+    print_params(out, kAccelParamNames, run.accel_params.data(), run.accel_sigma.data(), 9, 3, au,
                  "m/s^2");
     std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: before %s, after %s m/s^2%s\n",
                  fmt("%.5f", run.accel_pose_rms_before).c_str(),
@@ -375,15 +363,15 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
     std::fprintf(out, "\ngyroscope      %s\n  status: %s%s, bias %s\n", kGyroModel,
                  run.gyro_status.c_str(),
                  run.gyro_ok ? (" (" +
-                                plural_of(run.gyro_iterations, "Levenberg-Marquardt iteration",
-                                          "Levenberg-Marquardt iterations") +
+                                plural(run.gyro_iterations, "Levenberg-Marquardt iteration",
+                                       "Levenberg-Marquardt iterations") +
                                 ")")
                                    .c_str()
                              : "",
                  run.gyro_bias_refined ? "refined" : "from the initial rest");
   }
   if (run.gyro_ok) {
-    print_params(out, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12, 6, gu,
+    print_params(out, kGyroParamNames, run.gyro_params.data(), run.gyro_sigma.data(), 12, 6, gu,
                  "rad/s");
   }
   if (run.accel_ok && run.has_gyro) {
@@ -450,6 +438,17 @@ std::string printed(const std::function<void(std::FILE*)>& print) {
   std::string s(text, size);
   std::free(text);
   return s;
+}
+
+std::string fmt(const char* format, double v) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string plural(long n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
 std::string format_text(const char* format, ...) {
@@ -533,9 +532,8 @@ Json mag_json(const Run& run, const Options& o) {
     for (int r = 0; r < 3; ++r) s.push_back(vec3(m.soft_iron[r]));
     j["soft_iron"] = s;
     j["hard_iron"] = vec_sigma(m.hard_iron, m.hard_iron_sigma);
-    static const char* const kSym[6] = {"S00", "S11", "S22", "S01", "S02", "S12"};
     Json ss;
-    for (int k = 0; k < 6; ++k) ss[kSym[k]] = number(m.soft_iron_sigma[k]);
+    for (int k = 0; k < kMagSymEntries; ++k) ss[kMagSymNames[k]] = number(m.soft_iron_sigma[k]);
     j["soft_iron_sigma_symmetric"] = ss;
   }
   Json a;
@@ -680,7 +678,8 @@ std::string run_json(const Run& run, const Options& o) {
   accel["unit_in"] = accel_unit_name(o.accel_unit);
   accel["status"] = run.accel_status;
   accel["iterations"] = run.accel_iterations;
-  if (run.accel_ok) accel["parameters"] = params(kAccelNames, run.accel_params, run.accel_sigma, 9);
+  if (run.accel_ok)
+    accel["parameters"] = params(kAccelParamNames, run.accel_params, run.accel_sigma, 9);
   accel["residual_mps2"] = {{"pose_rms_before", number(run.accel_pose_rms_before)},
                             {"pose_rms_after", number(run.accel_pose_rms_after)},
                             {"sample_rms_after", number(run.accel_sample_rms_after)},
@@ -698,7 +697,8 @@ std::string run_json(const Run& run, const Options& o) {
   gyro["status"] = run.gyro_status;
   gyro["iterations"] = run.gyro_iterations;
   gyro["bias"] = run.gyro_bias_refined ? "refined" : "initial rest";
-  if (run.gyro_ok) gyro["parameters"] = params(kGyroNames, run.gyro_params, run.gyro_sigma, 12);
+  if (run.gyro_ok)
+    gyro["parameters"] = params(kGyroParamNames, run.gyro_params, run.gyro_sigma, 12);
   gyro["residual_deg"] = {{"move_rms_before", number(run.gyro_rms_before)},
                           {"move_rms_after", number(run.gyro_rms_after)}};
   gyro["imu_tk_cost"] = number(run.gyro_imu_tk_cost);
@@ -924,9 +924,9 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     }
     std::fprintf(out, "\n  %s: worst %.2f sigma\n", what, worst);
   };
-  table("accelerometer", *ta, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9,
+  table("accelerometer", *ta, kAccelParamNames, run.accel_params.data(), run.accel_sigma.data(), 9,
         run.accel_ok, run.has_accel);
-  table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
+  table("gyroscope", *tg, kGyroParamNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
         run.gyro_ok, run.has_gyro);
   // The magnetometer and the temperature model, when the file has their truth (simulate).
   auto vec3 = [](const Json& j, double* v) {
@@ -996,7 +996,6 @@ bool read_bytes(const std::string& path, std::vector<std::uint8_t>& out, std::st
 void print_record(const CalibrationRecord& r, const std::string& path, std::size_t length,
                   std::size_t file_size, std::FILE* out) {
   const Calibration<float>& c = r.calibration;
-  static const char* const kQuality[4] = {"none", "poor", "fair", "good"};
   std::fprintf(out, "imucal record %s: %zu bytes, format version %u, CRC-32 correct\n",
                path.c_str(), length, static_cast<unsigned>(r.version));
   if (file_size > length)
@@ -1032,7 +1031,7 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
       sd[static_cast<std::size_t>(k)] = static_cast<double>(a.sigma(k));
     }
     std::fprintf(out, "\naccelerometer  %s\n  %d poses\n", kAccelModel, a.poses);
-    print_params(out, kAccelNames, p.data(), sd.data(), 9, 3, "raw", "m/s^2");
+    print_params(out, kAccelParamNames, p.data(), sd.data(), 9, 3, "raw", "m/s^2");
     std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: %s m/s^2\n",
                  fmt("%.5f", static_cast<double>(a.residual_rms)).c_str());
   }
@@ -1045,7 +1044,7 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
     }
     std::fprintf(out, "\ngyroscope      %s\n  %d moves, bias %s\n", kGyroModel, g.moves,
                  g.bias_refined ? "refined" : "from the initial rest");
-    print_params(out, kGyroNames, p.data(), sd.data(), 12, 6, "raw", "rad/s");
+    print_params(out, kGyroParamNames, p.data(), sd.data(), 12, 6, "raw", "rad/s");
     const double rms = static_cast<double>(g.residual_rms);
     std::fprintf(out, "  residual per move (sine of the gravity angle), RMS: %s (%s deg)\n",
                  fmt("%.3e", rms).c_str(),
@@ -1055,7 +1054,7 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
     const MagCalibration<float>& m = r.mag;
     std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
     std::fprintf(out, "  %d samples, quality %s, field %s uT, fit error %s %%, coverage %s %%\n",
-                 m.samples, kQuality[static_cast<int>(m.quality) & 3],
+                 m.samples, to_string(m.quality),
                  fmt("%.3f", static_cast<double>(m.field_ut)).c_str(),
                  fmt("%.3f", static_cast<double>(m.fit_error_pct)).c_str(),
                  fmt("%.1f", 100.0 * static_cast<double>(m.coverage)).c_str());
@@ -1103,7 +1102,7 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
     sensor("accelerometer", t.accel);
     sensor("gyroscope", t.gyro);
   }
-  std::fprintf(out, "\nquality  %s\n", kQuality[static_cast<int>(c.quality) & 3]);
+  std::fprintf(out, "\nquality  %s\n", to_string(c.quality));
   std::fprintf(out,
                "raw: the unit the recording was calibrated in (the record does not name it); b "
                "is added to the raw reading\n");

@@ -25,6 +25,10 @@ bool write_text_file(const std::string& path, const std::string& text);
 std::string printed(const std::function<void(std::FILE*)>& print);
 // printf into a string (at most 1023 characters).
 std::string format_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
+// One number in `format`, or "n/a" if it is not finite.
+std::string fmt(const char* format, double v);
+// "1 pose", "3 poses": n and the word for it.
+std::string plural(long n, const char* one, const char* many);
 
 // The model, said once for the summary, the JSON and the header.
 extern const char* const kAccelModel;
