@@ -30,9 +30,18 @@ std::string fmt(const char* format, double v);
 // "1 pose", "3 poses": n and the word for it.
 std::string plural(long n, const char* one, const char* many);
 
-// The model, said once for the summary, the JSON and the header.
+// The models, said once for the summary, the JSON, the header and the record's print.
 extern const char* const kAccelModel;
 extern const char* const kGyroModel;
 extern const char* const kConvention;
+extern const char* const kMagModel;
+extern const char* const kTemperatureModel;
+
+// One line per parameter: name, value, sigma, unit (rad for the first scale_index, then the
+// scales in (out_unit)/unit, then the biases in unit).
+void print_params(std::FILE* out, const char* const* names, const double* p, const double* sd,
+                  int n, int scale_index, const char* unit, const char* out_unit);
+// "[x, y, z] +- [sx, sy, sz]", the values in `format`.
+std::string vec_pm(const double* v, const double* sd, const char* format);
 
 }  // namespace imucal::cli
