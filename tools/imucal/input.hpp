@@ -1,4 +1,6 @@
-// tools/imucal/input.hpp: the `imucal` tool's readers (host only, not library code).
+// tools/imucal/input.hpp: the `imucal` tool's input (host only, not library code): lines,
+// fields and numbers, and the samples of an input whatever its format (SampleReader; the
+// formats' readers are in format_reader.hpp).
 //
 // Two text formats, read line by line in bounded memory (a serial logger can pipe in):
 //  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz;
@@ -132,8 +134,18 @@ struct FileSetting {
   long line;
 };
 
+class FormatReader;
+struct InputLayout;
+
+// The samples of an input, whatever its format: a facade over the format's reader
+// (format_reader.hpp).
 class SampleReader {
  public:
+  SampleReader();
+  ~SampleReader();
+  SampleReader(const SampleReader&) = delete;
+  SampleReader& operator=(const SampleReader&) = delete;
+
   // files: one CSV file (or "-" for stdin), or the imu_tk accelerometer and gyroscope files.
   // False (reported) if nothing can be read: missing file, empty file, no usable header.
   bool open(const std::vector<std::string>& files, Format format, Diagnostics& diag);
@@ -151,7 +163,7 @@ class SampleReader {
   void set_time_unit(TimeUnit time);
   // Without a t column, sample i (0-based, good samples) is at i / hz seconds (hz 0: at i s).
   // Settable until the first next().
-  void set_rate(double hz) { rate_hz_ = hz; }
+  void set_rate(double hz);
   // The column names, comma-separated (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz; - or _ skip
   // a column), given before open(): they win over a header line (then skipped) and over a
   // `# imucal: columns=...` comment.
@@ -164,70 +176,31 @@ class SampleReader {
 
   Format format() const { return format_; }
   bool from_records() const { return from_records_; }  // open_records()
-  bool has_temperature() const { return col_temp_ >= 0; }
-  bool has_magnetometer() const { return col_mag_[0] >= 0; }
+  bool has_temperature() const;
+  bool has_magnetometer() const;
   // Both for an imu_tk pair; for CSV, as the columns say.
-  bool has_accelerometer() const { return format_ == Format::kImuTk || col_acc_[0] >= 0; }
-  bool has_gyroscope() const { return format_ == Format::kImuTk || col_gyro_[0] >= 0; }
-  bool has_time() const { return col_t_ >= 0; }
+  bool has_accelerometer() const;
+  bool has_gyroscope() const;
+  bool has_time() const;
   // How the columns were named: "header", "--columns", "columns= comment", or "assumed" (six
   // numeric columns without a header); and the names in file order ("-" for a skipped one).
-  const std::string& columns_source() const { return columns_source_; }
-  const std::string& column_names() const { return column_list_; }
-  long lines_skipped() const { return skipped_; }
+  const std::string& columns_source() const;
+  const std::string& column_names() const;
+  long lines_skipped() const;
   bool failed() const;  // a read error ended an input early (reported)
-  const std::vector<FileSetting>& file_settings() const { return settings_; }
+  const std::vector<FileSetting>& file_settings() const;
   // Progress over all files: bytes read / bytes in total (0 if unknown).
   double fraction_read() const;
 
  private:
-  bool start(Format format, Diagnostics& diag);
-  bool read_header(Diagnostics& diag);
-  bool name_columns(const std::vector<std::string>& names, bool strict, Diagnostics& diag);
-  bool next_csv(Record& r, Diagnostics& diag);
-  bool next_record(Record& r, Diagnostics& diag);
-  bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
-  bool next_imutk(Record& r, Diagnostics& diag);
-  bool content_line(LineReader& in, std::string_view& line, Diagnostics& diag);
-  bool number_field(const LineReader& in, const Field& f, const char* name, double& out,
-                    Diagnostics& diag);
-  bool after_previous(double t, bool have, double previous, const LineReader& in, long column,
-                      Diagnostics& diag);
-  void report(const LineReader& in, long column, std::string message, Diagnostics& diag);
-  static std::string time_not_after(double t, double previous);
-  double untimed_time() const;  // a sample's time without a t column: index / rate
-  void taken(double t);         // a good sample: the next must come after t
+  template <class OpenFile>
+  bool open_text(int files, Format format, Diagnostics& diag, OpenFile&& open_file);
+  const InputLayout& layout() const;
 
-  LineReader in_[2];
-  int files_ = 0;
+  std::unique_ptr<FormatReader> reader_;
   Format format_ = Format::kAuto;
-  double time_scale_ = 1.0;
-  // CSV column indices (-1: absent).
-  int col_t_ = -1, col_acc_[3] = {-1, -1, -1}, col_gyro_[3] = {-1, -1, -1};
-  int col_temp_ = -1, col_mag_[3] = {-1, -1, -1};
-  std::size_t columns_ = 0;
-  std::string column_list_;
-  std::string columns_given_, columns_default_, columns_source_;
-  double rate_hz_ = 0;
-  long index_ = 0;  // good samples so far (their time without a t column)
-  std::vector<Field> fields_;
-  std::vector<Record> records_;  // open_records(): served in order
-  std::size_t next_record_ = 0;
   bool from_records_ = false;
-  std::string pending_[2];  // imu_tk: the first sample line, read by open()
-  bool has_pending_[2] = {false, false};
-  // imu_tk: one look-ahead sample per file.
-  bool primed_ = false;
-  bool have_[2] = {false, false};
-  double t_[2] = {0, 0}, v_[2][3] = {};
-  long vline_[2] = {0, 0};
-  long matched_ = 0, unmatched_ = 0;
-  double first_unmatched_[2] = {0, 0};
-  bool data_started_ = false;
-  bool have_last_ = false;
-  double last_t_ = 0;
-  long skipped_ = 0;
-  std::vector<FileSetting> settings_;
+  std::string columns_given_, columns_default_;
 };
 
 }  // namespace imucal::cli
