@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <array>
 #include <cerrno>
@@ -835,7 +836,7 @@ TEST(CliExitCodes, BadSettingsTruthFilesAndStdoutOutputs) {
   testing::internal::CaptureStderr();
   EXPECT_EQ(calibrate_command({csv, "--initial-rest", "4000"}, false), 2);
   std::string err = testing::internal::GetCapturedStderr();
-  EXPECT_NE(err.find("--initial-rest (4000 s) must be at most 3600 s"), std::string::npos) << err;
+  EXPECT_NE(err.find("--initial-rest: 4000 is outside 0.1 .. 3600 s"), std::string::npos) << err;
   // A malformed truth file: a message and exit code 2, the JSON still written.
   write_file(bad_truth, R"({"accelerometer":{"parameters":{"s_x":"abc"}},"gyroscope":{}})");
   testing::internal::CaptureStdout();
@@ -2438,6 +2439,69 @@ TEST(AllanStream, AgreesWithTheWholeArrayEstimator) {
       worst_exact, worst_ci);
   EXPECT_LT(worst_exact, 1e-9);
   EXPECT_LT(worst_ci, 0.1);
+}
+
+// --- The command's edges -----------------------------------------------------------------------
+
+struct MainRun {
+  int code = -1;
+  std::string out, err;
+};
+
+// imucal_main(args) with its stdout and stderr captured.
+MainRun run_main(const std::vector<std::string>& args) {
+  MainRun r;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  r.code = imucal_main(args);
+  r.out = testing::internal::GetCapturedStdout();
+  r.err = testing::internal::GetCapturedStderr();
+  return r;
+}
+
+// Every numeric option has the physical range the help states: a value beyond it is bad usage
+// (exit 2, the option named) before any sample is read, from the command line or from a file.
+TEST(CliEdges, OptionValuesOutsideTheirPhysicalRangeAreUsageErrors) {
+  struct Case {
+    const char* key;
+    const char* bad_low;
+    const char* bad_high;
+    const char* good;
+  };
+  const Case cases[] = {
+      {"rate", "1e-300", "1e308", "100"},
+      {"accel-lsb-per-g", "0.5", "1e9", "4096"},
+      {"gyro-lsb-per-dps", "0.001", "1e8", "16.4"},
+      {"mag-lsb-per-ut", "0.001", "1e7", "6.67"},
+      {"accel-zero", "-1e10", "1e10", "32768"},
+      {"initial-rest", "1e-300", "4000", "2"},
+      {"min-rest", "0.001", "601", "0.6"},
+      {"temp-min-span", "0.01", "1000", "5"},
+      {"memory", "1", "1e7", "64"},
+      {"gravity", "9.6", "10", "9.81"},
+  };
+  for (const Case& c : cases) {
+    const std::string flag = std::string("--") + c.key;
+    for (const char* bad : {c.bad_low, c.bad_high}) {
+      Options o;
+      std::string error;
+      EXPECT_FALSE(parse_calibrate_options({flag, bad, "f.csv"}, o, error)) << flag << " " << bad;
+      EXPECT_NE(error.find(flag), std::string::npos) << error;
+      EXPECT_FALSE(apply_file_settings({{c.key, bad, "f.csv", 1}}, o, error)) << flag << bad;
+    }
+    Options o;
+    std::string error;
+    EXPECT_TRUE(parse_calibrate_options({flag, c.good, "f.csv"}, o, error)) << error;
+  }
+  // Through the command: exit 2, not a calibration refused (1).
+  const std::string csv = temp_path("range.csv");
+  ASSERT_EQ(simulate_command({"--seed", "5", "-o", csv}), 0);
+  for (const char* rate : {"1e308", "1e-300"}) {
+    const MainRun r = run_main({"calibrate", csv, "--rate", rate, "--quiet"});
+    EXPECT_EQ(r.code, 2) << rate << r.out;
+    EXPECT_NE(r.err.find("--rate"), std::string::npos) << r.err;
+  }
+  std::remove(csv.c_str());
 }
 
 }  // namespace

@@ -1366,13 +1366,6 @@ void print_diagnostics(const Diagnostics& diag) {
 // command's, and checked before any sample is read. False with the reason otherwise.
 bool settle_options(SampleReader& reader, Options& o, std::string& error) {
   if (!apply_file_settings(reader.file_settings(), o, error)) return false;
-  if (!(o.min_rest <= 600 && o.initial_rest <= 3600)) {
-    error = format_text(
-        "--initial-rest (%g s) must be at most 3600 s, --min-rest (%g s) at most "
-        "600 s",
-        o.initial_rest, o.min_rest);
-    return false;
-  }
   if (o.mag_unit == MagUnit::kCounts && !std::isfinite(o.mag_lsb_per_ut)) {
     error = format_text(
         "--mag-unit counts needs the nominal --mag-lsb-per-ut (counts per uT, "
