@@ -2459,6 +2459,49 @@ MainRun run_main(const std::vector<std::string>& args) {
   return r;
 }
 
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// An output that is an input (the same name, another name of it by a symbolic or a hard link)
+// is refused before anything is read or written: exit 2, the reason, and the input unchanged.
+TEST(CliEdges, AnOutputThatIsAnInputIsRefused) {
+  const std::string csv = temp_path("same.csv"), sym = temp_path("same_sym.csv"),
+                    hard = temp_path("same_hard.csv"), truth = temp_path("same_truth.json");
+  ASSERT_EQ(simulate_command({"--seed", "5", "-o", csv, "--truth", truth}), 0);
+  std::remove(sym.c_str());
+  std::remove(hard.c_str());
+  ASSERT_EQ(::symlink(csv.c_str(), sym.c_str()), 0);
+  ASSERT_EQ(::link(csv.c_str(), hard.c_str()), 0);
+  const std::string before = file_text(csv), truth_before = file_text(truth);
+  const std::vector<std::vector<std::string>> cases = {
+      {"calibrate", csv, "--json", csv, "--quiet"},
+      {"calibrate", csv, "--record", sym, "--quiet"},
+      {"calibrate", csv, "--svg", hard, "--quiet"},
+      {"calibrate", csv, "--header", csv, "--quiet"},
+      {"calibrate", csv, "--truth", truth, "--json", truth, "--quiet"},
+      {"report", "-o", sym, csv, "--quiet"},
+      {"noise", csv, "--json", hard},
+      {"noise", csv, "--svg", csv},
+      {"noise", csv, "--kalibr", sym, "--accel-unit", "mps2"},
+  };
+  for (const std::vector<std::string>& args : cases) {
+    const MainRun r = run_main(args);
+    EXPECT_EQ(r.code, 2) << args[0] << " " << args[2] << " " << args[3];
+    EXPECT_NE(r.err.find("is the input"), std::string::npos) << r.err;
+    EXPECT_TRUE(file_text(csv) == before) << "overwritten by " << args[2] << " " << args[3];
+    EXPECT_TRUE(file_text(truth) == truth_before) << "overwritten by " << args[2];
+  }
+  // Another file beside it is written as ever.
+  const std::string json = temp_path("same_out.json");
+  EXPECT_EQ(run_main({"calibrate", sym, "--json", json, "--quiet"}).code, 0);
+  EXPECT_FALSE(read_json(json).is_discarded());
+  for (const std::string& f : {csv, sym, hard, truth, json}) std::remove(f.c_str());
+}
+
 // Every numeric option has the physical range the help states: a value beyond it is bad usage
 // (exit 2, the option named) before any sample is read, from the command line or from a file.
 TEST(CliEdges, OptionValuesOutsideTheirPhysicalRangeAreUsageErrors) {

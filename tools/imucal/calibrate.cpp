@@ -1441,6 +1441,13 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal: no input (a CSV file, - for stdin, or two imu_tk files)\n");
     return 2;
   }
+  std::vector<std::string> inputs = o.files;
+  inputs.push_back(o.truth_path);
+  if (!outputs_apart_from_inputs(inputs, {{"--json", o.json_path},
+                                          {"--header", o.header_path},
+                                          {"--record", o.record_path},
+                                          {report ? "-o" : "--svg", o.svg_path}}))
+    return 2;
   Diagnostics diag;
   SampleReader reader;
   const std::string columns = o.columns;

@@ -522,6 +522,9 @@ int noise_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "imucal noise: no input (a CSV file, - for stdin, or two imu_tk files)\n");
     return 2;
   }
+  if (!outputs_apart_from_inputs(
+          o.files, {{"--json", o.json_path}, {"--kalibr", o.kalibr_path}, {"--svg", o.svg_path}}))
+    return 2;
   Diagnostics diag;
   SampleReader reader;
   reader.set_columns(o.columns);

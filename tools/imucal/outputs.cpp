@@ -428,6 +428,25 @@ int write_all(int fd, const std::string& text) {
 
 }  // namespace
 
+bool outputs_apart_from_inputs(const std::vector<std::string>& inputs,
+                               const std::vector<NamedPath>& outputs) {
+  for (const NamedPath& out : outputs) {
+    struct stat o {};
+    if (out.path.empty() || out.path == "-" || ::stat(out.path.c_str(), &o) != 0) continue;
+    for (const std::string& in : inputs) {
+      struct stat i {};
+      if (in.empty() || in == "-" || ::stat(in.c_str(), &i) != 0) continue;
+      if (i.st_dev != o.st_dev || i.st_ino != o.st_ino) continue;
+      std::fprintf(stderr,
+                   "imucal: %s %s is the input %s (the same file): refused, it would be "
+                   "overwritten\n",
+                   out.option, out.path.c_str(), in.c_str());
+      return false;
+    }
+  }
+  return true;
+}
+
 std::string printed(const std::function<void(std::FILE*)>& print) {
   char* text = nullptr;
   std::size_t size = 0;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "run.hpp"
 
@@ -21,6 +22,15 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
 // it, then renamed); a device or a pipe is written in place; a directory is refused. False
 // (the reason on stderr) if it cannot be written.
 bool write_text_file(const std::string& path, const std::string& text);
+// An output (option and path) that is the same file as an input, by device and inode (so
+// another name of it, a link, too): refused, the reason on stderr, false. "" and "-" are no
+// file; an output that does not exist yet is no input.
+struct NamedPath {
+  const char* option;
+  std::string path;
+};
+bool outputs_apart_from_inputs(const std::vector<std::string>& inputs,
+                               const std::vector<NamedPath>& outputs);
 // What `print` writes to a stream, as a string (a summary kept rather than printed).
 std::string printed(const std::function<void(std::FILE*)>& print);
 // printf into a string (at most 1023 characters).
