@@ -1,7 +1,9 @@
 // tools/imucal/cli.cpp: the subcommands and the help text.
 #include "cli.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <new>
 
 namespace imucal::cli {
@@ -121,20 +123,31 @@ accelerometer or the magnetometer alone), 1 none (the summary says why), 2 bad u
 `imucal record`: 0 a valid record, 1 not valid, 2 bad usage or an unreadable file.
 )";
 
+// The command's exit code, or 2 (the reason on stderr) if what it printed did not all reach
+// stdout: a full disk or device, a pipe's reader gone with an error.
+int stdout_written(int code) {
+  errno = 0;
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return code;
+  const int error = errno;
+  std::fprintf(stderr, "imucal: cannot write to stdout: %s\n",
+               error != 0 ? std::strerror(error) : "an earlier write failed");
+  return 2;
+}
+
 }  // namespace
 
 int imucal_main(const std::vector<std::string>& args) {
   if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
     std::fputs(kHelp, args.empty() ? stderr : stdout);
-    return args.empty() ? 2 : 0;
+    return stdout_written(args.empty() ? 2 : 0);
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   try {
-    if (args[0] == "calibrate") return calibrate_command(rest, false);
-    if (args[0] == "report") return calibrate_command(rest, true);
-    if (args[0] == "simulate") return simulate_command(rest);
-    if (args[0] == "record") return record_command(rest);
-    if (args[0] == "noise") return noise_command(rest);
+    if (args[0] == "calibrate") return stdout_written(calibrate_command(rest, false));
+    if (args[0] == "report") return stdout_written(calibrate_command(rest, true));
+    if (args[0] == "simulate") return stdout_written(simulate_command(rest));
+    if (args[0] == "record") return stdout_written(record_command(rest));
+    if (args[0] == "noise") return stdout_written(noise_command(rest));
   } catch (const std::bad_alloc&) {
     // calibrate, report and noise hold every sample of the recording (up to 100 bytes each).
     std::fprintf(stderr,
