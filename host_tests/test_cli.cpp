@@ -2547,5 +2547,118 @@ TEST(CliEdges, OptionValuesOutsideTheirPhysicalRangeAreUsageErrors) {
   std::remove(csv.c_str());
 }
 
+// Inputs that are not a recording of text lines each say what they are, and none of them reads
+// as "empty": a binary file, a file of NUL bytes, a directory, CR-only line ends, a 64 MB line,
+// a header of 2 M columns, UTF-16 text (with its byte-order mark and without).
+TEST(CliEdges, UnreadableInputsSayWhatTheyAre) {
+  const std::string recording = "t,ax,ay,az,gx,gy,gz\n0.00,1,2,9.8,0,0,0\n0.01,1,2,9.8,0,0,0\n";
+  std::string binary =
+      "\x7f"
+      "ELF\x02\x01\x01";
+  binary += std::string(9, '\0');
+  for (int i = 0; i < 4000; ++i) binary += static_cast<char>((i * 7919) % 251);
+  std::string cr_only;
+  for (int i = 0; i < 5000; ++i)
+    cr_only +=
+        (i == 0 ? std::string("t,ax,ay,az,gx,gy,gz") : std::to_string(i) + ".5,1,2,9.8,0,0,0") +
+        "\r";
+  std::string wide_header;
+  for (int i = 0; i < 2000000; ++i) wide_header += i ? ",c" : "c";
+  wide_header += "\n1\n";
+  auto utf16 = [&](bool bom) {
+    std::string u = bom ? "\xff\xfe" : "";
+    for (char c : recording) {
+      u += c;
+      u += '\0';
+    }
+    return u;
+  };
+  const std::string dir = temp_path("a_directory");
+  ::mkdir(dir.c_str(), 0755);
+  struct Case {
+    std::string name, text;  // text: the file's bytes (none: the path is `dir`)
+    const char* said;
+  };
+  const std::vector<Case> cases = {
+      {"binary", binary, "binary"},
+      {"nul", std::string(100000, '\0'), "NUL bytes"},
+      {"directory", "", "is a directory"},
+      {"cr_only", cr_only, "carriage return"},
+      {"long_line", std::string(64 << 20, '7') + "\n" + recording, "longer than"},
+      {"wide_header", wide_header, "2000000 fields"},
+      {"utf16_bom", utf16(true), "UTF-16"},
+      {"utf16", utf16(false), "UTF-16"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = c.name == "directory" ? dir : temp_path("edge_" + c.name);
+    if (c.name != "directory") write_file(path, c.text);
+    for (const char* command : {"calibrate", "noise"}) {
+      const bool calibrate = std::string(command) == "calibrate";
+      const MainRun r = run_main({command, path, calibrate ? "--quiet" : "--rate=100"});
+      EXPECT_EQ(r.code, 2) << c.name << " " << command;
+      EXPECT_NE(r.err.find(c.said), std::string::npos) << c.name << " " << command << ": " << r.err;
+      EXPECT_EQ(r.err.find("empty"), std::string::npos) << c.name << ": " << r.err;
+      EXPECT_LT(r.err.size(), 2000u) << c.name << ": " << r.err;
+    }
+    if (c.name != "directory") std::remove(path.c_str());
+  }
+  ::rmdir(dir.c_str());
+}
+
+// `imucal noise` on a still file whose readings never change, and on one with a single reading of
+// 1e308, says so (not "non-finite input", which neither has).
+TEST(CliEdges, NoiseSaysWhyAConstantOrHugeReadingHasNoDeviation) {
+  const std::string constant = temp_path("noise_constant.csv"), huge = temp_path("noise_huge.csv");
+  std::string a = "t,ax,ay,az,gx,gy,gz\n", b = a;
+  sim::Random rng(3);
+  char line[200];
+  for (int i = 0; i < 3000; ++i) {
+    std::snprintf(line, sizeof line, "%.2f,0,0,9.81,0.01,0.02,0.03\n", i * 0.01);
+    a += line;
+    std::snprintf(line, sizeof line, "%.2f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", i * 0.01,
+                  0.01 * rng.normal(), 0.01 * rng.normal(), 9.81 + 0.01 * rng.normal(),
+                  1e-3 * rng.normal(), 1e-3 * rng.normal(), 1e-3 * rng.normal());
+    b += i == 1500 ? "15.00,1e308,0,9.81,0,0,0\n" : line;
+  }
+  write_file(constant, a);
+  write_file(huge, b);
+  MainRun r = run_main({"noise", constant});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("every reading"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("non-finite"), std::string::npos) << r.err;
+  r = run_main({"noise", huge});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("1e+308"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("t = 15"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("non-finite"), std::string::npos) << r.err;
+  std::remove(constant.c_str());
+  std::remove(huge.c_str());
+}
+
+// A file with ';' between fields and ',' as the decimal point (a spreadsheet in a German or
+// French locale): a few lines are listed, then the conclusion, not a screen of the same line.
+TEST(CliEdges, DecimalCommasAreConcludedNotListedLineByLine) {
+  const std::string path = temp_path("decimal_commas.csv");
+  std::string text = "t;ax;ay;az;gx;gy;gz\n";
+  for (int i = 0; i < 2000; ++i) {
+    char line[200];
+    std::snprintf(line, sizeof line, "%d,%02d;0,12;-0,05;9,81;0,001;-0,002;0,003\n", i / 100,
+                  i % 100);
+    text += line;
+  }
+  write_file(path, text);
+  const MainRun r = run_main({"calibrate", path, "--quiet"});
+  EXPECT_EQ(r.code, 2);
+  std::size_t listed = 0;
+  for (std::size_t at = r.err.find("found 14"); at != std::string::npos;
+       at = r.err.find("found 14", at + 1))
+    ++listed;
+  EXPECT_GE(listed, 1u) << r.err;
+  EXPECT_LE(listed, 3u) << r.err;
+  EXPECT_NE(r.err.find("decimal comma"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("use '.' as the decimal point"), std::string::npos) << r.err;
+  std::remove(path.c_str());
+}
+
 }  // namespace
 }  // namespace imucal::cli

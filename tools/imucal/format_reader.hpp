@@ -113,6 +113,9 @@ class CsvReader : public TextReader {
   ColumnMap cols_;
   std::string pending_;  // the first sample line of a file without a header, read by start()
   bool has_pending_ = false;
+  // Lines of decimal commas (0,5;9,81): the first kListedAlike are listed, then a conclusion.
+  static constexpr long kListedAlike = 3;
+  long decimal_comma_lines_ = 0;
 };
 
 // imu_tk: two files of `t x y z` lines, the accelerometer's and the gyroscope's, paired by

@@ -42,11 +42,16 @@ bool LineReader::open(const std::string& path, Diagnostics& diag, std::size_t ma
     diag.add({path, 0, 0, std::string("cannot open: ") + std::strerror(errno)});
     return false;
   }
+  struct stat st {};
+  const bool known = fstat(fileno(f), &st) == 0;
+  if (known && S_ISDIR(st.st_mode)) {
+    std::fclose(f);
+    diag.add({path, 0, 0, "is a directory, not a recording"});
+    return false;
+  }
   open_stream(f, path, max_line, block);
   owns_ = true;
-  struct stat st {};
-  if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode))
-    size_ = static_cast<std::uint64_t>(st.st_size);
+  if (known && S_ISREG(st.st_mode)) size_ = static_cast<std::uint64_t>(st.st_size);
   return true;
 }
 
@@ -89,7 +94,53 @@ std::string_view LineReader::unread() const {
                       : std::string_view(buf_.get() + begin_, end_ - begin_);
 }
 
+namespace {
+
+// Why the start of an input (its first line, at most max_line + 1 bytes of it) is not the text
+// of a recording: a UTF-16 or UTF-32 text, NUL bytes only, binary data, lines ended by a
+// carriage return alone; empty if it can be.
+std::string not_text(std::string_view head) {
+  auto starts = [&](std::string_view prefix) { return head.substr(0, prefix.size()) == prefix; };
+  const char* const save_as = ": save it as UTF-8 or ASCII (e.g. iconv -f ";
+  if (starts(std::string_view("\xff\xfe\0\0", 4)) || starts(std::string_view("\0\0\xfe\xff", 4)))
+    return std::string("UTF-32 text (a byte-order mark)") + save_as + "UTF-32 -t UTF-8)";
+  if (starts("\xff\xfe") || starts("\xfe\xff"))
+    return std::string("UTF-16 text (the byte-order mark ") +
+           (head[0] == '\xff' ? "FF FE" : "FE FF") + ")" + save_as + "UTF-16 -t UTF-8)";
+  const std::size_t nul = head.find('\0');
+  if (nul != std::string_view::npos) {
+    if (head.find_first_not_of('\0') == std::string_view::npos)
+      return "NUL bytes only (the first " + std::to_string(head.size()) +
+             " bytes): not a text recording (a file never written, or an erased card?)";
+    // Every other byte NUL, the others ASCII: UTF-16 without a byte-order mark.
+    std::size_t at[2] = {0, 0}, n = std::min<std::size_t>(head.size(), 256) & ~std::size_t{1};
+    for (std::size_t k = 0; k < n; ++k) at[k & 1] += head[k] == '\0';
+    for (int odd = 0; odd < 2; ++odd)
+      if (n >= 4 && at[odd] == n / 2 && at[1 - odd] == 0)
+        return std::string("UTF-16 text (") + (odd ? "little" : "big") +
+               "-endian, no byte-order mark: every other byte is NUL)" + save_as +
+               (odd ? "UTF-16LE" : "UTF-16BE") + " -t UTF-8)";
+    return "binary data, not a text recording (a NUL byte at byte " + std::to_string(nul + 1) +
+           " of line 1)";
+  }
+  for (std::size_t cr = head.find('\r'); cr != std::string_view::npos; cr = head.find('\r', cr + 1))
+    if (cr + 1 < head.size() && head[cr + 1] != '\r' && head[cr + 1] != '\n')
+      return "the lines end in a carriage return alone (CR, as classic Mac OS wrote them): "
+             "convert them to LF (e.g. tr '\\r' '\\n')";
+  return "";
+}
+
+// How many fields a line of `text` has (commas and semicolons separate them).
+std::uint64_t separators(std::string_view text) {
+  std::uint64_t n = 0;
+  for (char c : text) n += c == ',' || c == ';';
+  return n;
+}
+
+}  // namespace
+
 bool LineReader::next(std::string_view& line, Diagnostics& diag) {
+  if (ended_) return false;
   for (;;) {
     std::string_view rest = unread();
     const std::size_t nl = rest.find('\n');
@@ -109,28 +160,52 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
       return false;
     }
     std::size_t len = complete ? nl : rest.size();
+    // The first line says whether this is text at all (not UTF-16, binary, NUL bytes, or lines
+    // ended by CR alone): if not, the input ends here.
+    if (line_ == 0) {
+      const std::string why = not_text(rest.substr(0, std::min(len, max_line_ + 1)));
+      if (!why.empty()) {
+        diag.add({name_, 1, 0, why});
+        ended_ = true;
+        return false;
+      }
+    }
     // A stream's incomplete line here is longer than max_line (the buffer's end, not the line's,
     // so a '\r' there is not its terminator).
     const bool whole = complete || from_memory_ || eof_;
     const std::size_t text_len = whole && len > 0 && rest[len - 1] == '\r' ? len - 1 : len;
     ++line_;
     if (text_len > max_line_) {
-      diag.add({name_, line_, 0,
-                "line longer than " + std::to_string(max_line_) + " characters: skipped"});
-      // Skip to the end of this line, however long.
+      // Skip to the end of this line, up to max_skip characters: a longer one (an endless line,
+      // binary data without a line end) ends the input there.
+      std::uint64_t chars = 0, fields = 1;
       for (;;) {
         rest = unread();
         const std::size_t at = rest.find('\n');
-        if (at != std::string_view::npos) {
-          begin_ += at + 1;
-          consumed_ += at + 1;
+        const std::size_t take = at != std::string_view::npos ? at : rest.size();
+        chars += take;
+        fields += separators(rest.substr(0, take));
+        if (chars > max_skip()) {
+          ended_ = true;
           break;
         }
-        begin_ += rest.size();
-        consumed_ += rest.size();
-        if (from_memory_ || eof_) break;
+        begin_ += at != std::string_view::npos ? at + 1 : take;
+        consumed_ += at != std::string_view::npos ? at + 1 : take;
+        if (at != std::string_view::npos || from_memory_ || eof_) break;
         fill();
       }
+      if (ended_) {
+        diag.add({name_, line_, 0,
+                  "line longer than " + std::to_string(max_skip()) +
+                      " characters (no line end within them): not a recording of text lines; "
+                      "the input is read no further"});
+        return false;
+      }
+      ++long_lines_;
+      diag.add({name_, line_, 0,
+                "line longer than " + std::to_string(max_line_) + " characters (" +
+                    std::to_string(chars) + " characters, " + std::to_string(fields) +
+                    " fields): skipped"});
       continue;
     }
     line = rest.substr(0, text_len);

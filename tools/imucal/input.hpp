@@ -65,8 +65,12 @@ class Diagnostics {
 };
 
 // Lines of a file or of stdin ("-"), read in blocks. A line longer than `max_line` characters is
-// reported and skipped; CR before LF is dropped; a last line without LF still counts; a UTF-8
-// byte-order mark before the first line is dropped. A read error is reported and ends the input.
+// reported (its length and fields) and skipped; one longer than max_skip() ends the input there
+// (reported: an endless line, binary data), so that any input ends in bounded time. CR before LF
+// is dropped; a last line without LF still counts; a UTF-8 byte-order mark before the first line
+// is dropped. An input whose first line is not text (UTF-16 or UTF-32, NUL bytes, binary data,
+// lines ended by CR alone) ends there, reported. A directory is refused. A read error is
+// reported and ends the input.
 class LineReader {
  public:
   static constexpr std::size_t kMaxLine = 1 << 16;
@@ -89,6 +93,12 @@ class LineReader {
   std::uint64_t bytes_read() const { return consumed_; }
   std::uint64_t size() const { return size_; }  // 0 if unknown (a pipe)
   bool failed() const { return failed_; }       // a read error ended the input early
+  // The input ended before its end (reported): not text, or a line beyond max_skip().
+  bool ended() const { return ended_; }
+  long long_lines() const { return long_lines_; }  // lines skipped as longer than max_line
+  std::size_t max_line() const { return max_line_; }
+  std::uint64_t max_skip() const { return kSkipLines * static_cast<std::uint64_t>(max_line_); }
+  static constexpr std::uint64_t kSkipLines = 256;  // max_skip(): 16 MB at the default max_line
 
  private:
   void fill();
@@ -97,6 +107,8 @@ class LineReader {
   bool owns_ = false;
   bool eof_ = false;
   bool failed_ = false;
+  bool ended_ = false;
+  long long_lines_ = 0;
   std::string error_;
   std::string name_;
   std::size_t max_line_ = kMaxLine;

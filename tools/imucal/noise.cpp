@@ -50,6 +50,9 @@ class IntervalHistogram {
 };
 
 constexpr int kMaxTaus = 64;
+// The largest reading the variances take (in the unit reported): far beyond any sensor's range,
+// far below where the sums of squares over a recording overflow.
+constexpr double kLargestReading = 1e100;
 constexpr int kPerDecade = 8;
 
 struct SensorNoise {
@@ -400,8 +403,12 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
 
   // One pass, in bounded memory whatever the length: the Allan variances as the samples come
   // (AllanStream), the intervals in a histogram of 0.1 % bins (the mean is known only at the
-  // end).
+  // end), each axis's first reading and whether another differs.
   AllanStream streams[2] = {AllanStream(kPerDecade), AllanStream(kPerDecade)};  // gyro, acc
+  const char* const kSensor[2] = {"gyroscope", "accelerometer"};
+  const bool present[2] = {has_gyro, has_acc};
+  double first[2][3] = {};
+  bool varies[2][3] = {};
   IntervalHistogram intervals;
   double t_first = 0, t_last = 0;
   long n = 0;
@@ -411,16 +418,30 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     if (n == 0) t_first = r.t;
     t_last = r.t;
     ++n;
-    const Vector3<double> g(r.gyro[0] * gyro_scale, r.gyro[1] * gyro_scale, r.gyro[2] * gyro_scale);
-    const Vector3<double> a(r.acc[0] * acc_scale, r.acc[1] * acc_scale, r.acc[2] * acc_scale);
-    if ((has_gyro && !g.allFinite()) || (has_acc && !a.allFinite())) {
-      result.error =
-          format_text("%s: %s", has_gyro && !g.allFinite() ? "gyroscope" : "accelerometer",
-                      to_string(Status::kNonFiniteInput));
-      return 2;
+    const double* raw[2] = {r.gyro, r.acc};
+    const double scale[2] = {gyro_scale, acc_scale};
+    for (int s = 0; s < 2; ++s) {
+      if (!present[s]) continue;
+      const Vector3<double> v(raw[s][0] * scale[s], raw[s][1] * scale[s], raw[s][2] * scale[s]);
+      // Beyond kLargestReading a reading's square, summed over the recording, overflows: a
+      // glitch, not noise.
+      int axis = 0;
+      for (int a = 1; a < 3; ++a)
+        if (std::abs(v(a)) > std::abs(v(axis))) axis = a;
+      if (!(std::abs(v(axis)) <= kLargestReading)) {
+        result.error = format_text(
+            "%s reading %.9g (axis %c) at t = %.9g s, sample %ld: beyond %g %s, too large for "
+            "a variance (a glitch in the logger? remove that line)",
+            kSensor[s], raw[s][axis], "xyz"[axis], r.t, n, kLargestReading,
+            s == 0 ? (gyro_si ? "rad/s" : "counts") : (acc_si ? "m/s^2" : "counts"));
+        return 2;
+      }
+      for (int a = 0; a < 3; ++a) {
+        if (n == 1) first[s][a] = raw[s][a];
+        varies[s][a] = varies[s][a] || raw[s][a] != first[s][a];
+      }
+      streams[s].add(v);
     }
-    if (has_gyro) streams[0].add(g);
-    if (has_acc) streams[1].add(a);
   }
   if (reader.failed()) {
     result.error = format_text("the input could not be read to its end");
@@ -439,6 +460,15 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     result.error = format_text("the time stamps do not advance");
     return 2;
   }
+  for (int s = 0; s < 2; ++s)
+    for (int a = 0; a < 3; ++a)
+      if (present[s] && !varies[s][a]) {
+        result.error = format_text(
+            "%s %c axis: every reading is %.9g (%ld samples): no noise to measure (a frozen "
+            "sensor, or a noise below the readings' resolution)",
+            kSensor[s], "xyz"[a], first[s][a], n);
+        return 2;
+      }
   // The Allan deviation assumes a constant interval: count the intervals far from it.
   const long gaps = intervals.over(1.5 * dt);
   const double worst = intervals.largest();
@@ -452,7 +482,6 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
   sensors[1].key = "accelerometer";
   sensors[1].si = acc_si;
   sensors[1].unit = acc_si ? "m/s^2" : "counts";
-  const bool present[2] = {has_gyro, has_acc};
   for (int s = 0; s < 2; ++s) {
     if (!present[s]) continue;
     SensorNoise& sn = sensors[s];

@@ -8,6 +8,26 @@
 
 namespace imucal::cli {
 
+namespace {
+
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+// A line of `columns` fields separated by ';' whose numbers have a decimal comma ("0,5;9,81"),
+// as a spreadsheet writes them in a locale with a decimal comma.
+bool decimal_commas(std::string_view line, std::size_t columns) {
+  std::size_t fields = 1;
+  bool comma = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    if (line[i] == ';') ++fields;
+    if (line[i] == ',' && i > 0 && i + 1 < line.size() && is_digit(line[i - 1]) &&
+        is_digit(line[i + 1]))
+      comma = true;
+  }
+  return comma && fields == columns;
+}
+
+}  // namespace
+
 bool CsvReader::start(Diagnostics& diag) {
   LineReader& in = in_[0];
   if (files_ != 1) {
@@ -16,9 +36,15 @@ bool CsvReader::start(Diagnostics& diag) {
   }
   std::string_view line;
   if (!content_line(in, line, diag)) {
+    if (in.ended() || in.failed()) return false;  // said why
+    const std::string expected = std::string("expected a header line naming the columns (") +
+                                 kRequiredColumns + "; optional temp, mx, my, mz)";
     diag.add({in.name(), 0, 0,
-              std::string("empty: expected a header line naming the columns (") + kRequiredColumns +
-                  "; optional temp, mx, my, mz)"});
+              in.line_number() == 0 ? "empty: " + expected
+              : in.long_lines() > 0
+                  ? "no header line: every line was longer than " + std::to_string(in.max_line()) +
+                        " characters (skipped)"
+                  : "no header line, only comments and blank lines: " + expected});
     return false;
   }
   split_fields(line, fields_);
@@ -64,6 +90,10 @@ bool CsvReader::start(Diagnostics& diag) {
     } else {
       msg += "t,ax,ay,az,gx,gy,gz";
     }
+    // A header too long to be read was skipped before these numbers: say so first.
+    if (in.long_lines() > 0)
+      msg = "the line(s) before line " + std::to_string(in.line_number()) +
+            " were too long to be a header (skipped); " + msg;
     report(in, 1, msg, diag);
     return false;
   }
@@ -99,11 +129,23 @@ bool CsvReader::next(Record& r, Diagnostics& diag) {
     if (!plain) {
       split_fields(line, fields_);
       if (fields_.size() != cols_.count) {
+        ++skipped_;
+        const bool commas = decimal_commas(line, cols_.count);
+        if (commas && ++decimal_comma_lines_ > kListedAlike) continue;  // concluded below
         report(in, 0,
                "expected " + std::to_string(cols_.count) + " fields (" + layout_.names +
-                   "), found " + std::to_string(fields_.size()) + ": line skipped",
+                   "), found " + std::to_string(fields_.size()) + ": line skipped" +
+                   (commas ? " (decimal commas? ';' separates " + std::to_string(cols_.count) +
+                                 " fields)"
+                           : ""),
                diag);
-        ++skipped_;
+        if (commas && decimal_comma_lines_ == kListedAlike)
+          report(in, 0,
+                 "decimal commas: these lines have " + std::to_string(cols_.count) +
+                     " fields between ';' and numbers like 0,5: use '.' as the decimal point "
+                     "(the locale of the spreadsheet or logger that wrote the file); further "
+                     "such lines are skipped without a message",
+                 diag);
         continue;
       }
     }

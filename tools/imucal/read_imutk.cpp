@@ -20,7 +20,8 @@ bool ImuTkReader::start(Diagnostics& diag) {
   for (int i = 0; i < 2; ++i) {
     std::string_view line;
     if (!content_line(in_[i], line, diag)) {
-      diag.add({in_[i].name(), 0, 0, "no samples: expected lines of `t x y z`"});
+      if (!in_[i].ended() && !in_[i].failed())  // else said why
+        diag.add({in_[i].name(), 0, 0, "no samples: expected lines of `t x y z`"});
       return false;
     }
     pending_[i] = std::string(line);

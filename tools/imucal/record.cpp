@@ -20,16 +20,20 @@ namespace imucal::cli {
 
 namespace {
 
-// The whole file ("-": stdin). False, with the reason, if it cannot be read.
-bool read_bytes(const std::string& path, std::vector<std::uint8_t>& out, std::string& error) {
+// The file's bytes ("-": stdin), at most `most` of them: a longer file gives most + 1 (and is no
+// record; an endless one, /dev/zero, ends there). False, with the reason, if it cannot be read.
+bool read_bytes(const std::string& path, std::size_t most, std::vector<std::uint8_t>& out,
+                std::string& error) {
   std::FILE* f = path == "-" ? stdin : std::fopen(path.c_str(), "rb");
   if (f == nullptr) {
     error = std::strerror(errno);
     return false;
   }
-  std::uint8_t buf[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.insert(out.end(), buf, buf + n);
+  out.resize(most + 1);
+  std::size_t got = 0, n = 0;
+  while (got < out.size() && (n = std::fread(out.data() + got, 1, out.size() - got, f)) > 0)
+    got += n;
+  out.resize(got);
   const bool ok = std::ferror(f) == 0;
   if (!ok) error = std::strerror(errno);
   if (f != stdin) std::fclose(f);
@@ -162,18 +166,30 @@ int record_command(const std::vector<std::string>& args) {
   const std::string& path = args[0];
   std::vector<std::uint8_t> bytes;
   std::string error;
-  if (!read_bytes(path, bytes, error)) {
+  if (!read_bytes(path, kRecordMaxBytes, bytes, error)) {
     std::fprintf(stderr, "imucal: cannot read %s: %s\n", path.c_str(), error.c_str());
     return 2;
   }
+  // A file longer than any record is none; its first bytes still say what they are.
+  const bool longer = bytes.size() > kRecordMaxBytes;
+  if (longer) bytes.resize(kRecordMaxBytes);
+  const std::string size = longer ? "more than " + std::to_string(kRecordMaxBytes) + " bytes"
+                                  : std::to_string(bytes.size());
   static const std::uint8_t kNothing = 0;  // decode_record refuses a null pointer
   const std::uint8_t* data = bytes.empty() ? &kNothing : bytes.data();
   CalibrationRecord record;
   std::size_t offset = 0;
   const Status st = decode_record(data, bytes.size(), record, &offset);
   if (st != Status::kOk) {
-    std::fprintf(stderr, "imucal: %s: %s, at byte %zu (of %zu)\n", path.c_str(), to_string(st),
-                 offset, bytes.size());
+    std::fprintf(stderr, "imucal: %s: %s, at byte %zu (of %s)\n", path.c_str(), to_string(st),
+                 offset, size.c_str());
+    return 1;
+  }
+  if (longer) {
+    std::fprintf(stderr,
+                 "imucal: %s: a record followed by more bytes, %s in all: longer than a flash "
+                 "slot (kRecordMaxBytes), not a record's file\n",
+                 path.c_str(), size.c_str());
     return 1;
   }
   const std::size_t length = static_cast<std::size_t>(bytes[6] | (bytes[7] << 8));
