@@ -821,9 +821,7 @@ struct WindowStats {
 template <typename Scalar>
 void describe_input(const SampleReader& reader, const Options& o, Run& run) {
   run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
-  run.format = reader.from_records()             ? "arrays"
-               : reader.format() == Format::kCsv ? "csv"
-                                                 : "imu_tk";
+  run.format = reader.from_arrays() ? "arrays" : reader.format() == Format::kCsv ? "csv" : "imu_tk";
   run.has_accel = reader.has_accelerometer();
   run.has_gyro = reader.has_gyroscope();
   run.has_mag = reader.has_magnetometer();
@@ -1517,30 +1515,37 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   return code;
 }
 
-bool open_arrays(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, Options& o, SampleReader& reader, Diagnostics& diag,
-                 std::string& error) {
+bool open_arrays(const std::vector<std::string>& args, const SampleArrays& arrays, Options& o,
+                 SampleReader& reader, Diagnostics& diag, std::string& error) {
   std::vector<std::string> all = args;
   all.push_back("<arrays>");  // the input's name in messages
   if (!parse_calibrate_options(all, o, error)) return false;
-  if (reader.open_records(std::move(records), columns, diag)) return true;
+  if (reader.open_arrays(arrays, diag)) return true;
   error = diag.kept().empty() ? "the columns cannot be read" : diag.kept()[0].message;
   return false;
 }
 
-int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                     const std::string& columns, MemoryRun& out) {
+int calibrate_memory(const std::vector<std::string>& args, const SampleArrays& arrays,
+                     MemoryRun& out) {
   Options o;
   Diagnostics diag;
   SampleReader reader;
-  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error) ||
+  if (!open_arrays(args, arrays, o, reader, diag, out.error) ||
       !settle_options(reader, o, out.error))
     return 2;
   o.quiet = true;
   if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
+  // The arrays are read again for the passes after the first, as a file is: beyond --memory
+  // nothing is kept.
+  const Reopen reopen = [&](SampleReader& r, Diagnostics& d) {
+    if (!r.open_arrays(arrays, d)) return false;
+    r.set_time_unit(o.time_unit);
+    r.set_rate(o.nominal_rate_hz);
+    return true;
+  };
   Run run;
   std::vector<Sample> page;
-  const int code = calibrate_from(o, reader, Reopen(), diag, run, page);
+  const int code = calibrate_from(o, reader, reopen, diag, run, page);
   if (run.samples == 0) {
     out.error = "no samples";
     return 2;

@@ -149,10 +149,10 @@ int imucal_main(const std::vector<std::string>& args) {
     if (args[0] == "record") return stdout_written(record_command(rest));
     if (args[0] == "noise") return stdout_written(noise_command(rest));
   } catch (const std::bad_alloc&) {
-    // calibrate, report and noise hold every sample of the recording (up to 100 bytes each).
+    // calibrate and report keep up to --memory MB of samples between passes.
     std::fprintf(stderr,
-                 "imucal %s: out of memory (it holds the whole recording, up to 100 bytes a "
-                 "sample): give it a shorter recording, or run it where there is more memory\n",
+                 "imucal %s: out of memory: give a smaller --memory (the samples kept between "
+                 "passes; default 256 MB), or run it where there is more memory\n",
                  args[0].c_str());
     return 2;
   }

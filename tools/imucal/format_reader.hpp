@@ -139,20 +139,18 @@ class ImuTkReader : public TextReader {
   double first_unmatched_[2] = {0, 0};
 };
 
-// Samples in memory (the Python package's arrays), as a CSV file of these columns would give
-// them: a required reading that is not finite, or a time not after the previous one, is reported
-// (its index + 1 as the line) and the sample skipped.
+// Samples in memory (the Python package's arrays, read where they are), as a CSV file of their
+// columns would give them: a required reading that is not finite, or a time not after the
+// previous one, is reported (its index + 1 as the line) and the sample skipped.
 class ArrayReader : public FormatReader {
  public:
-  ArrayReader(std::vector<Record> records, std::string columns)
-      : records_(std::move(records)), columns_(std::move(columns)) {}
+  explicit ArrayReader(const SampleArrays& arrays) : arrays_(arrays) {}
   bool start(Diagnostics& diag) override;
   bool next(Record& r, Diagnostics& diag) override;
-  double fraction_read() const override { return 0; }
+  double fraction_read() const override;
 
  private:
-  std::vector<Record> records_;
-  std::string columns_;
+  SampleArrays arrays_;
   ColumnMap cols_;
   std::size_t next_ = 0;
 };

@@ -461,11 +461,10 @@ bool SampleReader::open_streams(const std::vector<std::FILE*>& files, Format for
   });
 }
 
-bool SampleReader::open_records(std::vector<Record> records, const std::string& columns,
-                                Diagnostics& diag) {
+bool SampleReader::open_arrays(const SampleArrays& arrays, Diagnostics& diag) {
   format_ = Format::kCsv;
-  from_records_ = true;
-  reader_ = std::make_unique<ArrayReader>(std::move(records), columns);
+  from_arrays_ = true;
+  reader_ = std::make_unique<ArrayReader>(arrays);
   return reader_->start(diag);
 }
 

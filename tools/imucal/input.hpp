@@ -139,6 +139,22 @@ const char* decimal_fast(const char* p, const char* end, double& out);
 // values as split_fields and parse_number give; false for any other line.
 bool plain_numbers(std::string_view line, double* out, std::size_t n);
 
+// Samples in memory, one array per quantity, read where they are (the Python package's numpy
+// arrays: any strides, not copied): each column's first value and the bytes from one row to the
+// next and from one axis to the next; data null: not in the input.
+struct ArrayColumn {
+  const char* data = nullptr;
+  std::ptrdiff_t row_bytes = 0, axis_bytes = 0;
+  double at(std::size_t row, int axis = 0) const;
+  explicit operator bool() const { return data != nullptr; }
+};
+struct SampleArrays {
+  std::size_t rows = 0;
+  ArrayColumn t, acc, gyro, mag, temp;  // t, temp: one axis; the others three
+  // The columns present, comma-separated, as --columns names them ("t,ax,ay,az,gx,gy,gz").
+  std::string columns() const;
+};
+
 // The `# imucal: key=value ...` settings found in comments, in order.
 struct FileSetting {
   std::string key, value;
@@ -167,10 +183,11 @@ class SampleReader {
   // Open streams, not closed here (the fuzz target: small buffers reach every boundary).
   bool open_streams(const std::vector<std::FILE*>& files, Format format, Diagnostics& diag,
                     std::size_t max_line, std::size_t block);
-  // Samples already in memory (the Python package's arrays), as a CSV file of these columns
-  // (comma-separated names, as --columns) would give them: a required reading that is not
-  // finite, or a time not after the previous one, is reported and the sample skipped.
-  bool open_records(std::vector<Record> records, const std::string& columns, Diagnostics& diag);
+  // Samples in memory (the Python package's arrays, which must outlive the reader), as a CSV
+  // file of their columns would give them: a required reading that is not finite, or a time not
+  // after the previous one, is reported and the sample skipped. Opened again, they are read
+  // again from the first.
+  bool open_arrays(const SampleArrays& arrays, Diagnostics& diag);
   // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
   void set_time_unit(TimeUnit time);
   // Without a t column, sample i (0-based, good samples) is at i / hz seconds (hz 0: at i s).
@@ -187,7 +204,7 @@ class SampleReader {
   bool next(Record& r, Diagnostics& diag);
 
   Format format() const { return format_; }
-  bool from_records() const { return from_records_; }  // open_records()
+  bool from_arrays() const { return from_arrays_; }  // open_arrays()
   bool has_temperature() const;
   bool has_magnetometer() const;
   // Both for an imu_tk pair; for CSV, as the columns say.
@@ -211,7 +228,7 @@ class SampleReader {
 
   std::unique_ptr<FormatReader> reader_;
   Format format_ = Format::kAuto;
-  bool from_records_ = false;
+  bool from_arrays_ = false;
   std::string columns_given_, columns_default_;
 };
 

@@ -581,12 +581,11 @@ int noise_command(const std::vector<std::string>& args) {
   return written ? 0 : 2;
 }
 
-int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, NoiseRun& out) {
+int noise_memory(const std::vector<std::string>& args, const SampleArrays& arrays, NoiseRun& out) {
   Options o;
   Diagnostics diag;
   SampleReader reader;
-  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error)) return 2;
+  if (!open_arrays(args, arrays, o, reader, diag, out.error)) return 2;
   const int code = noise_from(o, reader, diag, out);
   for (const Diagnostic& d : diag.kept()) out.diagnostics.push_back(d.text());
   return code;
