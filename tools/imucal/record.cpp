@@ -40,6 +40,18 @@ bool read_bytes(const std::string& path, std::size_t most, std::vector<std::uint
   return ok;
 }
 
+// A stored sensor's parameters and sigmas (float, raw units in), one line each.
+template <int N>
+void print_stored(std::FILE* out, const char* const* names, const Eigen::Matrix<float, N, 1>& p,
+                  const Eigen::Matrix<float, N, 1>& sd, int scale_index, const char* out_unit) {
+  std::array<double, static_cast<std::size_t>(N)> v{}, s{};
+  for (int k = 0; k < N; ++k) {
+    v[static_cast<std::size_t>(k)] = static_cast<double>(p(k));
+    s[static_cast<std::size_t>(k)] = static_cast<double>(sd(k));
+  }
+  print_params(out, names, v.data(), s.data(), N, scale_index, "raw", out_unit);
+}
+
 void print_record(const CalibrationRecord& r, const std::string& path, std::size_t length,
                   std::size_t file_size, std::FILE* out) {
   const Calibration<float>& c = r.calibration;
@@ -72,26 +84,16 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
           : "unknown");
   if (has_accel) {
     const AccelCalibration<float>& a = c.accel;
-    std::array<double, 9> p{}, sd{};
-    for (int k = 0; k < 9; ++k) {
-      p[static_cast<std::size_t>(k)] = static_cast<double>(a.params(k));
-      sd[static_cast<std::size_t>(k)] = static_cast<double>(a.sigma(k));
-    }
     std::fprintf(out, "\naccelerometer  %s\n  %d poses\n", kAccelModel, a.poses);
-    print_params(out, kAccelParamNames, p.data(), sd.data(), 9, 3, "raw", "m/s^2");
+    print_stored(out, kAccelParamNames, a.params, a.sigma, kScaleX, "m/s^2");
     std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: %s m/s^2\n",
                  fmt("%.5f", static_cast<double>(a.residual_rms)).c_str());
   }
   if (has_gyro) {
     const GyroCalibration<float>& g = c.gyro;
-    std::array<double, 12> p{}, sd{};
-    for (int k = 0; k < 12; ++k) {
-      p[static_cast<std::size_t>(k)] = static_cast<double>(g.params(k));
-      sd[static_cast<std::size_t>(k)] = static_cast<double>(g.sigma(k));
-    }
     std::fprintf(out, "\ngyroscope      %s\n  %d moves, bias %s\n", kGyroModel, g.moves,
                  g.bias_refined ? "refined" : "from the initial rest");
-    print_params(out, kGyroParamNames, p.data(), sd.data(), 12, 6, "raw", "rad/s");
+    print_stored(out, kGyroParamNames, g.params, g.sigma, kGyroScaleX, "rad/s");
     const double rms = static_cast<double>(g.residual_rms);
     std::fprintf(out, "  residual per move (sine of the gravity angle), RMS: %s (%s deg)\n",
                  fmt("%.3e", rms).c_str(),
