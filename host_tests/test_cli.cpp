@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <array>
 #include <cerrno>
@@ -427,8 +428,9 @@ TEST(CliHeader, CompilesAsCAndAppliesTheModel) {
   const Json r = read_json(json);
   AccelVector<double> pa;
   GyroVector<double> pg;
-  for (int k = 0; k < 9; ++k) pa(k) = r["accelerometer"]["parameters"][kAccelNames[k]]["value"];
-  for (int k = 0; k < 12; ++k) pg(k) = r["gyroscope"]["parameters"][kGyroNames[k]]["value"];
+  for (int k = 0; k < 9; ++k)
+    pa(k) = r["accelerometer"]["parameters"][kAccelParamNames[k]]["value"];
+  for (int k = 0; k < 12; ++k) pg(k) = r["gyroscope"]["parameters"][kGyroParamNames[k]]["value"];
   const Vector3<double> a_cal = accel_apply(pa, Vector3<double>(33000, 31000, 36000));
   const Vector3<double> w_cal = gyro_apply(pg, Vector3<double>(33100, 32500, 32200));
   for (int i = 0; i < 3; ++i) {
@@ -834,7 +836,7 @@ TEST(CliExitCodes, BadSettingsTruthFilesAndStdoutOutputs) {
   testing::internal::CaptureStderr();
   EXPECT_EQ(calibrate_command({csv, "--initial-rest", "4000"}, false), 2);
   std::string err = testing::internal::GetCapturedStderr();
-  EXPECT_NE(err.find("--initial-rest (4000 s) must be at most 3600 s"), std::string::npos) << err;
+  EXPECT_NE(err.find("--initial-rest: 4000 is outside 0.1 .. 3600 s"), std::string::npos) << err;
   // A malformed truth file: a message and exit code 2, the JSON still written.
   write_file(bad_truth, R"({"accelerometer":{"parameters":{"s_x":"abc"}},"gyroscope":{}})");
   testing::internal::CaptureStdout();
@@ -889,14 +891,17 @@ TEST(CliRecord, WrittenDecodedAndPrinted) {
     const Json r = read_json(json);
     EXPECT_EQ(static_cast<int>(rec.calibration.quality), r["quality"] == "good" ? 3 : 2);
     for (int k = 0; k < 9; ++k) {
-      const Json& p = r["accelerometer"]["parameters"][kAccelNames[k]];
-      EXPECT_FLOAT_EQ(rec.calibration.accel.params(k), p["value"].get<float>()) << kAccelNames[k];
-      EXPECT_FLOAT_EQ(rec.calibration.accel.sigma(k), p["sigma"].get<float>()) << kAccelNames[k];
+      const Json& p = r["accelerometer"]["parameters"][kAccelParamNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.params(k), p["value"].get<float>())
+          << kAccelParamNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.accel.sigma(k), p["sigma"].get<float>())
+          << kAccelParamNames[k];
     }
     for (int k = 0; k < 12; ++k) {
-      const Json& p = r["gyroscope"]["parameters"][kGyroNames[k]];
-      EXPECT_FLOAT_EQ(rec.calibration.gyro.params(k), p["value"].get<float>()) << kGyroNames[k];
-      EXPECT_FLOAT_EQ(rec.calibration.gyro.sigma(k), p["sigma"].get<float>()) << kGyroNames[k];
+      const Json& p = r["gyroscope"]["parameters"][kGyroParamNames[k]];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.params(k), p["value"].get<float>())
+          << kGyroParamNames[k];
+      EXPECT_FLOAT_EQ(rec.calibration.gyro.sigma(k), p["sigma"].get<float>()) << kGyroParamNames[k];
     }
   }
 
@@ -911,13 +916,13 @@ TEST(CliRecord, WrittenDecodedAndPrinted) {
   ASSERT_EQ(decode_record(bytes.data(), bytes.size(), rec), Status::kOk);
   char line[128];
   for (int k = 0; k < 12; ++k) {
-    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kGyroNames[k],
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kGyroParamNames[k],
                   static_cast<double>(rec.calibration.gyro.params(k)),
                   static_cast<double>(rec.calibration.gyro.sigma(k)));
     EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;
   }
   for (int k = 0; k < 9; ++k) {
-    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kAccelNames[k],
+    std::snprintf(line, sizeof line, "  %-9s % .7e  +- %.2e", kAccelParamNames[k],
                   static_cast<double>(rec.calibration.accel.params(k)),
                   static_cast<double>(rec.calibration.accel.sigma(k)));
     EXPECT_NE(out.find(line), std::string::npos) << line << "\n" << out;
@@ -2434,6 +2439,225 @@ TEST(AllanStream, AgreesWithTheWholeArrayEstimator) {
       worst_exact, worst_ci);
   EXPECT_LT(worst_exact, 1e-9);
   EXPECT_LT(worst_ci, 0.1);
+}
+
+// --- The command's edges -----------------------------------------------------------------------
+
+struct MainRun {
+  int code = -1;
+  std::string out, err;
+};
+
+// imucal_main(args) with its stdout and stderr captured.
+MainRun run_main(const std::vector<std::string>& args) {
+  MainRun r;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  r.code = imucal_main(args);
+  r.out = testing::internal::GetCapturedStdout();
+  r.err = testing::internal::GetCapturedStderr();
+  return r;
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// An output that is an input (the same name, another name of it by a symbolic or a hard link)
+// is refused before anything is read or written: exit 2, the reason, and the input unchanged.
+TEST(CliEdges, AnOutputThatIsAnInputIsRefused) {
+  const std::string csv = temp_path("same.csv"), sym = temp_path("same_sym.csv"),
+                    hard = temp_path("same_hard.csv"), truth = temp_path("same_truth.json");
+  ASSERT_EQ(simulate_command({"--seed", "5", "-o", csv, "--truth", truth}), 0);
+  std::remove(sym.c_str());
+  std::remove(hard.c_str());
+  ASSERT_EQ(::symlink(csv.c_str(), sym.c_str()), 0);
+  ASSERT_EQ(::link(csv.c_str(), hard.c_str()), 0);
+  const std::string before = file_text(csv), truth_before = file_text(truth);
+  const std::vector<std::vector<std::string>> cases = {
+      {"calibrate", csv, "--json", csv, "--quiet"},
+      {"calibrate", csv, "--record", sym, "--quiet"},
+      {"calibrate", csv, "--svg", hard, "--quiet"},
+      {"calibrate", csv, "--header", csv, "--quiet"},
+      {"calibrate", csv, "--truth", truth, "--json", truth, "--quiet"},
+      {"report", "-o", sym, csv, "--quiet"},
+      {"noise", csv, "--json", hard},
+      {"noise", csv, "--svg", csv},
+      {"noise", csv, "--kalibr", sym, "--accel-unit", "mps2"},
+  };
+  for (const std::vector<std::string>& args : cases) {
+    const MainRun r = run_main(args);
+    EXPECT_EQ(r.code, 2) << args[0] << " " << args[2] << " " << args[3];
+    EXPECT_NE(r.err.find("is the input"), std::string::npos) << r.err;
+    EXPECT_TRUE(file_text(csv) == before) << "overwritten by " << args[2] << " " << args[3];
+    EXPECT_TRUE(file_text(truth) == truth_before) << "overwritten by " << args[2];
+  }
+  // Another file beside it is written as ever.
+  const std::string json = temp_path("same_out.json");
+  EXPECT_EQ(run_main({"calibrate", sym, "--json", json, "--quiet"}).code, 0);
+  EXPECT_FALSE(read_json(json).is_discarded());
+  for (const std::string& f : {csv, sym, hard, truth, json}) std::remove(f.c_str());
+}
+
+// Every numeric option has the physical range the help states: a value beyond it is bad usage
+// (exit 2, the option named) before any sample is read, from the command line or from a file.
+TEST(CliEdges, OptionValuesOutsideTheirPhysicalRangeAreUsageErrors) {
+  struct Case {
+    const char* key;
+    const char* bad_low;
+    const char* bad_high;
+    const char* good;
+  };
+  const Case cases[] = {
+      {"rate", "1e-300", "1e308", "100"},
+      {"accel-lsb-per-g", "0.5", "1e9", "4096"},
+      {"gyro-lsb-per-dps", "0.001", "1e8", "16.4"},
+      {"mag-lsb-per-ut", "0.001", "1e7", "6.67"},
+      {"accel-zero", "-1e10", "1e10", "32768"},
+      {"initial-rest", "1e-300", "4000", "2"},
+      {"min-rest", "0.001", "601", "0.6"},
+      {"temp-min-span", "0.01", "1000", "5"},
+      {"memory", "1", "1e7", "64"},
+      {"gravity", "9.6", "10", "9.81"},
+  };
+  for (const Case& c : cases) {
+    const std::string flag = std::string("--") + c.key;
+    for (const char* bad : {c.bad_low, c.bad_high}) {
+      Options o;
+      std::string error;
+      EXPECT_FALSE(parse_calibrate_options({flag, bad, "f.csv"}, o, error)) << flag << " " << bad;
+      EXPECT_NE(error.find(flag), std::string::npos) << error;
+      EXPECT_FALSE(apply_file_settings({{c.key, bad, "f.csv", 1}}, o, error)) << flag << bad;
+    }
+    Options o;
+    std::string error;
+    EXPECT_TRUE(parse_calibrate_options({flag, c.good, "f.csv"}, o, error)) << error;
+  }
+  // Through the command: exit 2, not a calibration refused (1).
+  const std::string csv = temp_path("range.csv");
+  ASSERT_EQ(simulate_command({"--seed", "5", "-o", csv}), 0);
+  for (const char* rate : {"1e308", "1e-300"}) {
+    const MainRun r = run_main({"calibrate", csv, "--rate", rate, "--quiet"});
+    EXPECT_EQ(r.code, 2) << rate << r.out;
+    EXPECT_NE(r.err.find("--rate"), std::string::npos) << r.err;
+  }
+  std::remove(csv.c_str());
+}
+
+// Inputs that are not a recording of text lines each say what they are, and none of them reads
+// as "empty": a binary file, a file of NUL bytes, a directory, CR-only line ends, a 64 MB line,
+// a header of 2 M columns, UTF-16 text (with its byte-order mark and without).
+TEST(CliEdges, UnreadableInputsSayWhatTheyAre) {
+  const std::string recording = "t,ax,ay,az,gx,gy,gz\n0.00,1,2,9.8,0,0,0\n0.01,1,2,9.8,0,0,0\n";
+  std::string binary =
+      "\x7f"
+      "ELF\x02\x01\x01";
+  binary += std::string(9, '\0');
+  for (int i = 0; i < 4000; ++i) binary += static_cast<char>((i * 7919) % 251);
+  std::string cr_only;
+  for (int i = 0; i < 5000; ++i)
+    cr_only +=
+        (i == 0 ? std::string("t,ax,ay,az,gx,gy,gz") : std::to_string(i) + ".5,1,2,9.8,0,0,0") +
+        "\r";
+  std::string wide_header;
+  for (int i = 0; i < 2000000; ++i) wide_header += i ? ",c" : "c";
+  wide_header += "\n1\n";
+  auto utf16 = [&](bool bom) {
+    std::string u = bom ? "\xff\xfe" : "";
+    for (char c : recording) {
+      u += c;
+      u += '\0';
+    }
+    return u;
+  };
+  const std::string dir = temp_path("a_directory");
+  ::mkdir(dir.c_str(), 0755);
+  struct Case {
+    std::string name, text;  // text: the file's bytes (none: the path is `dir`)
+    const char* said;
+  };
+  const std::vector<Case> cases = {
+      {"binary", binary, "binary"},
+      {"nul", std::string(100000, '\0'), "NUL bytes"},
+      {"directory", "", "is a directory"},
+      {"cr_only", cr_only, "carriage return"},
+      {"long_line", std::string(64 << 20, '7') + "\n" + recording, "longer than"},
+      {"wide_header", wide_header, "2000000 fields"},
+      {"utf16_bom", utf16(true), "UTF-16"},
+      {"utf16", utf16(false), "UTF-16"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = c.name == "directory" ? dir : temp_path("edge_" + c.name);
+    if (c.name != "directory") write_file(path, c.text);
+    for (const char* command : {"calibrate", "noise"}) {
+      const bool calibrate = std::string(command) == "calibrate";
+      const MainRun r = run_main({command, path, calibrate ? "--quiet" : "--rate=100"});
+      EXPECT_EQ(r.code, 2) << c.name << " " << command;
+      EXPECT_NE(r.err.find(c.said), std::string::npos) << c.name << " " << command << ": " << r.err;
+      EXPECT_EQ(r.err.find("empty"), std::string::npos) << c.name << ": " << r.err;
+      EXPECT_LT(r.err.size(), 2000u) << c.name << ": " << r.err;
+    }
+    if (c.name != "directory") std::remove(path.c_str());
+  }
+  ::rmdir(dir.c_str());
+}
+
+// `imucal noise` on a still file whose readings never change, and on one with a single reading of
+// 1e308, says so (not "non-finite input", which neither has).
+TEST(CliEdges, NoiseSaysWhyAConstantOrHugeReadingHasNoDeviation) {
+  const std::string constant = temp_path("noise_constant.csv"), huge = temp_path("noise_huge.csv");
+  std::string a = "t,ax,ay,az,gx,gy,gz\n", b = a;
+  sim::Random rng(3);
+  char line[200];
+  for (int i = 0; i < 3000; ++i) {
+    std::snprintf(line, sizeof line, "%.2f,0,0,9.81,0.01,0.02,0.03\n", i * 0.01);
+    a += line;
+    std::snprintf(line, sizeof line, "%.2f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", i * 0.01,
+                  0.01 * rng.normal(), 0.01 * rng.normal(), 9.81 + 0.01 * rng.normal(),
+                  1e-3 * rng.normal(), 1e-3 * rng.normal(), 1e-3 * rng.normal());
+    b += i == 1500 ? "15.00,1e308,0,9.81,0,0,0\n" : line;
+  }
+  write_file(constant, a);
+  write_file(huge, b);
+  MainRun r = run_main({"noise", constant});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("every reading"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("non-finite"), std::string::npos) << r.err;
+  r = run_main({"noise", huge});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("1e+308"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("t = 15"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("non-finite"), std::string::npos) << r.err;
+  std::remove(constant.c_str());
+  std::remove(huge.c_str());
+}
+
+// A file with ';' between fields and ',' as the decimal point (a spreadsheet in a German or
+// French locale): a few lines are listed, then the conclusion, not a screen of the same line.
+TEST(CliEdges, DecimalCommasAreConcludedNotListedLineByLine) {
+  const std::string path = temp_path("decimal_commas.csv");
+  std::string text = "t;ax;ay;az;gx;gy;gz\n";
+  for (int i = 0; i < 2000; ++i) {
+    char line[200];
+    std::snprintf(line, sizeof line, "%d,%02d;0,12;-0,05;9,81;0,001;-0,002;0,003\n", i / 100,
+                  i % 100);
+    text += line;
+  }
+  write_file(path, text);
+  const MainRun r = run_main({"calibrate", path, "--quiet"});
+  EXPECT_EQ(r.code, 2);
+  std::size_t listed = 0;
+  for (std::size_t at = r.err.find("found 14"); at != std::string::npos;
+       at = r.err.find("found 14", at + 1))
+    ++listed;
+  EXPECT_GE(listed, 1u) << r.err;
+  EXPECT_LE(listed, 3u) << r.err;
+  EXPECT_NE(r.err.find("decimal comma"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("use '.' as the decimal point"), std::string::npos) << r.err;
+  std::remove(path.c_str());
 }
 
 }  // namespace

@@ -489,10 +489,7 @@ Status AccelSolver<Scalar>::covariance(
 }
 
 const char* accel_parameter_name(int k) {
-  static constexpr const char* kNames[kAccelParams] = {"alpha_yz", "alpha_zy", "alpha_zx",
-                                                       "scale_x",  "scale_y",  "scale_z",
-                                                       "bias_x",   "bias_y",   "bias_z"};
-  return k >= 0 && k < kAccelParams ? kNames[k] : "?";
+  return k >= 0 && k < kAccelParams ? kAccelParamNames[k] : "?";
 }
 
 const char* accel_orientation_hint(int k) {

@@ -109,4 +109,18 @@ const char* to_string(Status s) {
   return "unknown status";
 }
 
+const char* to_string(Quality q) {
+  switch (q) {
+    case Quality::kNone:
+      return "none";
+    case Quality::kPoor:
+      return "poor";
+    case Quality::kFair:
+      return "fair";
+    case Quality::kGood:
+      return "good";
+  }
+  return "unknown quality";
+}
+
 }  // namespace imucal

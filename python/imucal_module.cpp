@@ -11,13 +11,17 @@
 
 #include "cli.hpp"
 #include "imucal/corrector.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
 #include "imucal/store/record.hpp"
 
 namespace py = pybind11;
 
 namespace {
 
-using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+// Any strides: a view of a larger array is read where it is, not copied (an array of another
+// type is converted to double once).
+using Array = py::array_t<double, py::array::forcecast>;
 
 // An (N, 3) array, or a length-N one for `columns` 1; none: None. Its rows (N) checked.
 Array rows_of(const py::object& x, const char* name, py::ssize_t columns, py::ssize_t& n) {
@@ -54,61 +58,52 @@ std::vector<std::string> flags(const py::kwargs& options) {
   return args;
 }
 
-// The arrays as the records a CSV of `columns` would give.
-std::vector<imucal::cli::Record> records_of(const py::object& acc, const py::object& gyro,
-                                            const py::object& t, const py::object& mag,
-                                            const py::object& temp, std::string& columns) {
+// The arrays as the command's reader takes them: read where they are (kept alive by `keep`
+// while the reader runs).
+struct Arrays {
+  imucal::cli::SampleArrays view;
+  Array keep[5];
+};
+
+Arrays arrays_of(const py::object& acc, const py::object& gyro, const py::object& t,
+                 const py::object& mag, const py::object& temp) {
   py::ssize_t n = -1;
-  Array a, g, m, tt, te;
-  const bool has_t = !t.is_none(), has_a = !acc.is_none(), has_g = !gyro.is_none(),
-             has_m = !mag.is_none(), has_te = !temp.is_none();
-  columns.clear();
-  if (has_t) {
-    tt = rows_of(t, "t", 1, n);
-    columns += "t,";
-  }
-  if (has_a) {
-    a = rows_of(acc, "acc", 3, n);
-    columns += "ax,ay,az,";
-  }
-  if (has_g) {
-    g = rows_of(gyro, "gyro", 3, n);
-    columns += "gx,gy,gz,";
-  }
-  if (has_m) {
-    m = rows_of(mag, "mag", 3, n);
-    columns += "mx,my,mz,";
-  }
-  if (has_te) {
-    te = rows_of(temp, "temp", 1, n);
-    columns += "temp,";
+  Arrays out;
+  struct Part {
+    const py::object& x;
+    const char* name;
+    py::ssize_t columns;
+    imucal::cli::ArrayColumn& column;
+  };
+  imucal::cli::SampleArrays& v = out.view;
+  const Part parts[5] = {{t, "t", 1, v.t},
+                         {acc, "acc", 3, v.acc},
+                         {gyro, "gyro", 3, v.gyro},
+                         {mag, "mag", 3, v.mag},
+                         {temp, "temp", 1, v.temp}};
+  for (int k = 0; k < 5; ++k) {
+    const Part& p = parts[k];
+    if (p.x.is_none()) continue;
+    Array& a = out.keep[k];
+    a = rows_of(p.x, p.name, p.columns, n);
+    p.column.data = reinterpret_cast<const char*>(a.data());
+    p.column.row_bytes = a.strides(0);
+    p.column.axis_bytes = p.columns == 3 ? a.strides(1) : 0;
   }
   if (n < 0) throw py::value_error("no readings: give acc (and gyro), or mag");
-  columns.pop_back();
-  std::vector<imucal::cli::Record> records(static_cast<std::size_t>(n));
-  for (py::ssize_t i = 0; i < n; ++i) {
-    imucal::cli::Record& r = records[static_cast<std::size_t>(i)];
-    if (has_t) r.t = tt.at(i);
-    for (py::ssize_t k = 0; k < 3; ++k) {
-      if (has_a) r.acc[k] = a.at(i, k);
-      if (has_g) r.gyro[k] = g.at(i, k);
-      if (has_m) r.mag[k] = m.at(i, k);
-    }
-    if (has_te) r.temp = te.at(i);
-  }
-  return records;
+  v.rows = static_cast<std::size_t>(n);
+  return out;
 }
 
 py::dict calibrate(const py::object& acc, const py::object& gyro, const py::object& t,
                    const py::object& mag, const py::object& temp, const py::kwargs& options) {
-  std::string columns;
-  std::vector<imucal::cli::Record> records = records_of(acc, gyro, t, mag, temp, columns);
+  const Arrays arrays = arrays_of(acc, gyro, t, mag, temp);
   const std::vector<std::string> args = flags(options);
   imucal::cli::MemoryRun run;
   int code = 0;
   {
     py::gil_scoped_release release;  // other Python threads run meanwhile
-    code = imucal::cli::calibrate_memory(args, std::move(records), columns, run);
+    code = imucal::cli::calibrate_memory(args, arrays.view, run);
   }
   if (code == 2) throw py::value_error(run.error);
   py::dict result = py::module_::import("json").attr("loads")(run.json);
@@ -123,15 +118,13 @@ py::dict calibrate(const py::object& acc, const py::object& gyro, const py::obje
 
 py::dict noise(const py::object& acc, const py::object& gyro, const py::object& t,
                const py::kwargs& options) {
-  std::string columns;
-  std::vector<imucal::cli::Record> records =
-      records_of(acc, gyro, t, py::none(), py::none(), columns);
+  const Arrays arrays = arrays_of(acc, gyro, t, py::none(), py::none());
   const std::vector<std::string> args = flags(options);
   imucal::cli::NoiseRun run;
   int code = 0;
   {
     py::gil_scoped_release release;
-    code = imucal::cli::noise_memory(args, std::move(records), columns, run);
+    code = imucal::cli::noise_memory(args, arrays.view, run);
   }
   if (code != 0) throw py::value_error(run.error);
   py::dict result = py::module_::import("json").attr("loads")(run.json);
@@ -160,12 +153,11 @@ py::list as_list(const V& v) {
 
 py::dict decode_record(const py::bytes& data) {
   const imucal::CalibrationRecord r = decode(data);
-  static const char* const kQuality[] = {"none", "poor", "fair", "good"};
   py::dict d;
   d["version"] = r.version;
   d["device_id"] = r.device_id;
   d["sensor_id"] = r.sensor_id;
-  d["quality"] = kQuality[static_cast<int>(r.calibration.quality)];
+  d["quality"] = imucal::to_string(r.calibration.quality);
   if (r.parts & imucal::kRecordAccel)
     d["accelerometer"] = py::dict(py::arg("parameters") = as_list(r.calibration.accel.params),
                                   py::arg("sigma") = as_list(r.calibration.accel.sigma));
@@ -231,6 +223,13 @@ PYBIND11_MODULE(imucal, m) {
   m.doc() =
       "imucal: accelerometer, gyroscope and magnetometer calibration from a hand-turned "
       "recording (the library's streaming calibrator, as the imucal command runs it).";
+  // The parameters' names in the order of decode_record()'s lists: the keys of calibrate()'s
+  // "parameters" dicts.
+  py::list accel_names, gyro_names;
+  for (const char* name : imucal::kAccelParamNames) accel_names.append(name);
+  for (const char* name : imucal::kGyroParamNames) gyro_names.append(name);
+  m.attr("ACCEL_PARAMETERS") = py::tuple(accel_names);
+  m.attr("GYRO_PARAMETERS") = py::tuple(gyro_names);
   m.def("calibrate", &calibrate, py::arg("acc") = py::none(), py::arg("gyro") = py::none(),
         py::kw_only(), py::arg("t") = py::none(), py::arg("mag") = py::none(),
         py::arg("temp") = py::none(),

@@ -13,7 +13,9 @@ mkdir -p "$out/corpus"
 # Both programs are built, then both fuzzed, side by side (one core each).
 clang++ -std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
   -Itools/imucal -Iinclude -isystem /usr/include/eigen3 \
-  tools/fuzz/fuzz_input.cpp tools/imucal/input.cpp tools/imucal/options.cpp \
+  tools/fuzz/fuzz_input.cpp tools/imucal/input.cpp tools/imucal/format_reader.cpp \
+  tools/imucal/read_csv.cpp tools/imucal/read_imutk.cpp tools/imucal/read_arrays.cpp \
+  tools/imucal/options.cpp \
   -o "$out/fuzz_input" &
 build_input=$!
 # The record's programs need the solvers only in float.

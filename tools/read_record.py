@@ -4,15 +4,19 @@ standard library alone: what a test bench or a production line needs to check wh
 stored.
 
     tools/read_record.py RECORD                 prints the record's parts and parameters
-    tools/read_record.py RECORD --check JSON    exits 1 unless every accelerometer and gyroscope
-                                                parameter equals the one `imucal calibrate
-                                                --json` wrote (to float precision)
+    tools/read_record.py RECORD --check JSON    exits 1 unless the JSON `imucal calibrate --json`
+                                                wrote names the parameters as this reader does
+                                                and every accelerometer and gyroscope parameter
+                                                equals the JSON's (to float precision)
 """
 import json
 import struct
 import sys
 import zlib
 
+# The library's kAccelParamNames and kGyroParamNames (imucal/models/accel_model.hpp,
+# gyro_model.hpp), the keys of `imucal calibrate --json`; --check and the Python package's test
+# hold them equal.
 ACCEL_NAMES = ["alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z", "b_x", "b_y", "b_z"]
 GYRO_NAMES = ["gamma_yz", "gamma_zy", "gamma_zx", "gamma_xz", "gamma_xy", "gamma_yx",
               "s_x", "s_y", "s_z", "b_x", "b_y", "b_z"]
@@ -94,9 +98,14 @@ def read_record(data):
 def check_against_json(record, summary):
     """The differences between the record's parameters and those of `imucal calibrate --json`."""
     problems = []
-    for sensor in ("accelerometer", "gyroscope"):
+    for sensor, names in (("accelerometer", ACCEL_NAMES), ("gyroscope", GYRO_NAMES)):
         if sensor not in record:
             problems.append("%s: not in the record" % sensor)
+            continue
+        keys = list(summary[sensor]["parameters"])
+        if keys != names:
+            problems.append("%s: the JSON names the parameters %s, this reader %s"
+                            % (sensor, ", ".join(keys), ", ".join(names)))
             continue
         for name, value in record[sensor]["params"].items():
             want = summary[sensor]["parameters"][name]["value"]

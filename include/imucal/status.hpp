@@ -80,4 +80,8 @@ constexpr bool succeeded(Status s) {
 // Short English description, e.g. "poses coplanar". Static storage, never null.
 const char* to_string(Status s);
 
+// The quality's name: "none", "poor", "fair" or "good" (the JSON's and the summary's word).
+// Static storage, never null.
+const char* to_string(Quality q);
+
 }  // namespace imucal

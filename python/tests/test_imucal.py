@@ -4,6 +4,7 @@ import json
 import math
 import os
 import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 import imucal
 
 SOURCE = os.environ.get("IMUCAL_SOURCE", os.path.join(os.path.dirname(__file__), "..", ".."))
+sys.path.insert(0, os.path.join(SOURCE, "tools"))
+import read_record  # noqa: E402  (tools/read_record.py: the record read by Python alone)
 TOOL = os.environ.get("IMUCAL_TOOL", os.path.join(SOURCE, "build", "host", "tools", "imucal"))
 XSENS = os.environ.get("IMUCAL_XSENS_DIR", os.path.join(SOURCE, "..", "shared", "data", "xsens"))
 BUNDLED = os.path.join(SOURCE, "data", "simulated_imu.csv")
@@ -126,8 +129,7 @@ def test_record_and_corrector_apply_the_calibration():
     rec = imucal.decode_record(py["record"])
     assert rec["quality"] == "good"
     p = py["accelerometer"]["parameters"]
-    params = [p[k]["value"] for k in ("alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z",
-                                      "b_x", "b_y", "b_z")]
+    params = [p[k]["value"] for k in imucal.ACCEL_PARAMETERS]
     for got, want in zip(rec["accelerometer"]["parameters"], params):
         assert math.isclose(got, want, rel_tol=1e-6, abs_tol=1e-6 * max(1.0, abs(want)))
     # The corrector turns every pose's mean into gravity's magnitude (the poses' residual).
@@ -141,6 +143,73 @@ def test_record_and_corrector_apply_the_calibration():
         norms.append(np.linalg.norm(a_cal[inside].mean(axis=0)))
     rms = math.sqrt(np.mean((np.array(norms) - g) ** 2))
     assert rms < 3 * py["accelerometer"]["residual_mps2"]["pose_rms_after"] + 1e-4
+
+
+def test_parameter_names_are_the_librarys_everywhere():
+    """The library's names (kAccelParamNames, kGyroParamNames) are the JSON's keys, in order, and
+    tools/read_record.py, which cannot include the header, has the same lists."""
+    t, acc, gyro, temp, mag, settings = bundled_arrays()
+    py = imucal.calibrate(acc, gyro, t=t, temp=temp, mag=mag, **settings)
+    assert len(imucal.ACCEL_PARAMETERS) == 9 and len(imucal.GYRO_PARAMETERS) == 12
+    assert list(py["accelerometer"]["parameters"]) == list(imucal.ACCEL_PARAMETERS)
+    assert list(py["gyroscope"]["parameters"]) == list(imucal.GYRO_PARAMETERS)
+    assert read_record.ACCEL_NAMES == list(imucal.ACCEL_PARAMETERS)
+    assert read_record.GYRO_NAMES == list(imucal.GYRO_PARAMETERS)
+    rec = read_record.read_record(py["record"])
+    assert list(rec["accelerometer"]["params"]) == list(imucal.ACCEL_PARAMETERS)
+    assert rec["quality"] == 3 and py["quality"] == "good"
+
+
+MEMORY_SCRIPT = r"""
+import sys
+import numpy as np
+import imucal
+
+def status(key):
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    raise KeyError(key)
+
+acc, gyro, n = np.load(sys.argv[1]), np.load(sys.argv[2]), int(sys.argv[3])
+reps = -(-n // len(acc))
+acc, gyro = np.tile(acc, (reps, 1))[:n].copy(), np.tile(gyro, (reps, 1))[:n].copy()
+with open("/proc/self/clear_refs", "w") as f:  # the peak from here on
+    f.write("5")
+before = status("VmRSS")
+r = imucal.calibrate(acc, gyro, rate=100, memory=16, accel_unit="counts", gyro_unit="counts",
+                     accel_lsb_per_g=4069.76, accel_zero=32768, gyro_lsb_per_dps=83.2522,
+                     gravity=9.81, initial_rest=10)
+print(status("VmHWM") - before, r["input"]["samples"])
+"""
+
+
+def peak_growth(n, tmp):
+    """The peak memory calibrate() adds over n samples (arrays made before it), in bytes."""
+    t, acc, gyro, temp, mag, settings = bundled_arrays()
+    files = [os.path.join(tmp, name) for name in ("acc.npy", "gyro.npy")]
+    np.save(files[0], acc)
+    np.save(files[1], gyro)
+    out = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, *files, str(n)], check=True,
+                         capture_output=True, text=True).stdout.split()
+    assert int(out[1]) == n
+    return int(out[0])
+
+
+def test_calibrate_memory_does_not_grow_with_the_samples():
+    """The arrays are read where they are, as the command reads a file: the memory calibrate()
+    adds is bounded by memory= (16 MB) and does not grow with the sample count (the bundled
+    recording's readings repeated to 1 M and 4 M samples, its time from rate=)."""
+    if not os.access("/proc/self/clear_refs", os.W_OK):
+        pytest.skip("no /proc/self/clear_refs to measure a peak from")
+    with tempfile.TemporaryDirectory() as tmp:
+        small, large = peak_growth(1_000_000, tmp), peak_growth(4_000_000, tmp)
+    per_sample = (large - small) / 3_000_000
+    print("peak growth: %.1f MB at 1 M samples, %.1f MB at 4 M: %.2f bytes a sample"
+          % (small / 1e6, large / 1e6, per_sample))
+    assert per_sample < 2, "calibrate() keeps %.1f bytes a sample" % per_sample
+    assert large < (16 + 40) * 1e6
 
 
 def test_what_the_command_refuses_raises_with_the_reason():

@@ -22,12 +22,6 @@
 
 namespace imucal::cli {
 
-const char* const kAccelNames[9] = {"alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y",
-                                    "s_z",      "b_x",      "b_y",      "b_z"};
-const char* const kGyroNames[12] = {"gamma_yz", "gamma_zy", "gamma_zx", "gamma_xz",
-                                    "gamma_xy", "gamma_yx", "s_x",      "s_y",
-                                    "s_z",      "b_x",      "b_y",      "b_z"};
-
 namespace {
 
 // Shows how far the reading is, on a terminal only (stderr), at most every 64k samples.
@@ -94,20 +88,6 @@ double mag_unit_ut(const Options& o) {
       return 1.0 / o.mag_lsb_per_ut;  // NaN if not given
   }
   return kNaN;
-}
-
-const char* quality_name(Quality q) {
-  switch (q) {
-    case Quality::kGood:
-      return "good";
-    case Quality::kFair:
-      return "fair";
-    case Quality::kPoor:
-      return "poor";
-    case Quality::kNone:
-      return "none";
-  }
-  return "none";
 }
 
 // The angle between two directions, in degrees (stable for small and for near-opposite ones).
@@ -335,10 +315,6 @@ struct RangeWatch {
 const char* const kFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
 const char* const kAxisNamesXyz[3] = {"x", "y", "z"};
 
-std::string plural(long n, const char* one, const char* many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
 // A misalignment the poses did not determine (held at 0) and a weak parameter, by name, with
 // the orientations that would pin it down.
 template <typename Scalar>
@@ -487,7 +463,7 @@ void finish_magnetometer(MagCal<Scalar>& mag, const Options& o,
     m.coverage = static_cast<double>(mc.coverage);
     m.samples = mc.samples;
     m.iterations = mc.iterations;
-    m.quality = quality_name(mc.quality);
+    m.quality = to_string(mc.quality);
     m.rests = mag.rests();
     if (m.aligned) {
       m.dip_deg = static_cast<double>(mc.dip_deg);
@@ -620,7 +596,7 @@ int pose_file(const Options& o, const std::vector<Sample>& samples, Run& run) {
   // Quality: good with every face up in some pose, fair otherwise (the stream's noise test
   // needs the samples of each rest, which a file of means does not hold).
   c.quality = !run.accel_ok ? Quality::kNone : faces == 0x3f ? Quality::kGood : Quality::kFair;
-  run.quality = quality_name(c.quality);
+  run.quality = to_string(c.quality);
   run.quality_level = static_cast<int>(c.quality);
   run.usable = run.accel_ok;
   if (!run.accel_ok) {
@@ -837,14 +813,15 @@ struct WindowStats {
   MagWindow mag;
 };
 
+// --- The steps of one run: read, stream, solve, temperature, assemble, advise, magnetometer ----
+
+// Read: what the input holds and how it is read (its format, parts, columns, where the time
+// comes from, and so the mode: a stream, a file of poses, a magnetometer alone), from the opened
+// reader and the settled options, into `run`. No sample is read.
 template <typename Scalar>
-int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diagnostics& diag,
-                    Run& run, std::vector<Sample>& page) {
-  using Pass = CalibratorPass<Scalar>;
+void describe_input(const SampleReader& reader, const Options& o, Run& run) {
   run.scalar = sizeof(Scalar) == sizeof(float) ? "float" : "double";
-  run.format = reader.from_records()             ? "arrays"
-               : reader.format() == Format::kCsv ? "csv"
-                                                 : "imu_tk";
+  run.format = reader.from_arrays() ? "arrays" : reader.format() == Format::kCsv ? "csv" : "imu_tk";
   run.has_accel = reader.has_accelerometer();
   run.has_gyro = reader.has_gyroscope();
   run.has_mag = reader.has_magnetometer();
@@ -854,28 +831,40 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.time_source = reader.format() == Format::kImuTk || reader.has_time() ? "t column"
                     : o.nominal_rate_hz > 0                                ? "--rate"
                                                                            : "none";
-  const bool stream_mode = run.mode == "stream", pose_mode = run.mode == "poses";
-  const bool want_page = !o.svg_path.empty();
+}
 
-  // The first pass: every sample as it is read through the calibrator, sample by sample as on
-  // the device, and the magnetometer's collector; kept for the passes after it.
+// What the first pass leaves for the steps after it.
+template <typename Scalar>
+struct FirstPass {
+  std::unique_ptr<CalibratorPass<Scalar>> pass;  // the stream's (none for poses or a magnetometer)
+  std::unique_ptr<MagCal<Scalar>> mag;           // the magnetometer's collector
+  std::vector<Sample> pose_lines;                // a file of poses: one line each
+  RangeWatch acc_range, gyro_range;              // the integer formats the readings showed
+  double first_temp = kNaN;  // the first temperature read: the samples before it take it
+};
+
+// Stream through the calibrator: every sample as it is read, one at a time as on the device,
+// and every magnetometer reading to its collector; a file of poses keeps its lines instead. A
+// stream in counts without a range given starts once its first samples show their integer
+// format (at most RangeWatch::kPrefix held until then), with that format's saturation limits.
+// Sets the run's sample count, first and last times and rate, and the saturation limits the
+// whole input shows into `o` (inferred in counts without a range). run.samples 0: no sample.
+template <typename Scalar>
+FirstPass<Scalar> stream_first_pass(Input& in, const SampleReader& reader, Options& o, Run& run) {
+  FirstPass<Scalar> f;
+  const bool stream_mode = run.mode == "stream", pose_mode = run.mode == "poses";
   ProgressLine progress(!o.quiet);
-  Input in(reader, diag, reopen, o, run.has_gyro);
-  RangeWatch acc_range, gyro_range;
-  auto mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
-  std::vector<Sample> pose_lines;  // a file of poses: one line each
-  std::unique_ptr<Pass> pass;
-  double first_temp = kNaN;  // before it, the samples take it (the temperature model)
+  f.mag = std::make_unique<MagCal<Scalar>>(mag_settings<Scalar>(o));
   long n = 0;
   std::vector<Sample> prefix;  // the first samples, until their integer format shows
   auto start_pass = [&] {
-    acc_range.start(o.accel_min, o.accel_max);
-    gyro_range.start(o.gyro_min, o.gyro_max);
-    pass = std::make_unique<Pass>(calibrator_settings<Scalar>(o, run), true);
+    f.acc_range.start(o.accel_min, o.accel_max);
+    f.gyro_range.start(o.gyro_min, o.gyro_max);
+    f.pass = std::make_unique<CalibratorPass<Scalar>>(calibrator_settings<Scalar>(o, run), true);
     for (const Sample& s : prefix) {
-      acc_range.count(s.acc);
-      gyro_range.count(s.gyro);
-      pass->add(s);
+      f.acc_range.count(s.acc);
+      f.gyro_range.count(s.gyro);
+      f.pass->add(s);
     }
     prefix = {};
   };
@@ -883,68 +872,63 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   while (in.next(read)) {
     if (n == 0) {
       run.t_first = read.t;
-      acc_range.active =
+      f.acc_range.active =
           run.has_accel && o.accel_unit == AccelUnit::kCounts && !std::isfinite(o.accel_min);
-      gyro_range.active = run.has_accel && run.has_gyro && o.gyro_unit == GyroUnit::kCounts &&
-                          !std::isfinite(o.gyro_min);
+      f.gyro_range.active = run.has_accel && run.has_gyro && o.gyro_unit == GyroUnit::kCounts &&
+                            !std::isfinite(o.gyro_min);
     }
     ++n;
     run.t_last = read.t;
-    acc_range.add(read.acc);
-    gyro_range.add(read.gyro);
+    f.acc_range.add(read.acc);
+    f.gyro_range.add(read.gyro);
     if (std::isfinite(read.mag[0])) {  // the reader gives all three axes or none
       ++run.mag.readings;
-      mag->add(Vector3<Scalar>(static_cast<Scalar>(read.mag[0]), static_cast<Scalar>(read.mag[1]),
-                               static_cast<Scalar>(read.mag[2])));
+      f.mag->add(Vector3<Scalar>(static_cast<Scalar>(read.mag[0]), static_cast<Scalar>(read.mag[1]),
+                                 static_cast<Scalar>(read.mag[2])));
     }
-    if (!std::isfinite(first_temp) && std::isfinite(read.temp)) first_temp = read.temp;
-    if (pose_mode) pose_lines.push_back(read);
-    if (pass) {
-      pass->add(read);
+    if (!std::isfinite(f.first_temp) && std::isfinite(read.temp)) f.first_temp = read.temp;
+    if (pose_mode) f.pose_lines.push_back(read);
+    if (f.pass) {
+      f.pass->add(read);
     } else if (stream_mode) {
       prefix.push_back(read);
-      if ((acc_range.settled() && gyro_range.settled()) || prefix.size() >= RangeWatch::kPrefix)
+      if ((f.acc_range.settled() && f.gyro_range.settled()) || prefix.size() >= RangeWatch::kPrefix)
         start_pass();
     }
     if (progress.due(n)) progress.show(n, reader.fraction_read());
   }
-  if (stream_mode && !pass && n > 0) start_pass();
+  if (stream_mode && !f.pass && n > 0) start_pass();
   run.samples = n;
   run.lines_skipped = reader.lines_skipped();
-  if (n == 0) {
-    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, "no samples"});
-    return 2;
-  }
+  if (n == 0) return f;
   if (n > 1 && run.time_source != "none")
     run.rate_hz = static_cast<double>(n - 1) / (run.t_last - run.t_first);
   // The saturation limits as the whole input shows them (its first samples' until now).
-  if (acc_range.active) o.accel_min = o.accel_max = kNaN;
-  if (gyro_range.active) o.gyro_min = o.gyro_max = kNaN;
-  if (run.has_accel) infer_ranges(acc_range.seen, gyro_range.seen, run.has_gyro, o);
-  auto failed_again = [&] {
-    diag.add({o.files.empty() ? "" : o.files[0], 0, 0, in.error()});
-    return 2;
-  };
-  if (run.mode == "magnetometer") {
-    const int code = magnetometer_alone<Scalar>(o, *mag, run);
-    if (want_page) {
-      PageSamples pages(run.t_first, run.t_last, run.samples);
-      if (!in.again([&](const Sample& s) { pages.add(s); })) return failed_again();
-      page = pages.take();
-    }
-    return code;
-  }
-  if (pose_mode) {
-    if (want_page) page = pose_lines;
-    return pose_file<Scalar>(o, pose_lines, run);
-  }
+  if (f.acc_range.active) o.accel_min = o.accel_max = kNaN;
+  if (f.gyro_range.active) o.gyro_min = o.gyro_max = kNaN;
+  if (run.has_accel) infer_ranges(f.acc_range.seen, f.gyro_range.seen, run.has_gyro, o);
+  return f;
+}
 
-  CalibratorSettings<Scalar> cs = calibrator_settings<Scalar>(o, run);
-  if (acc_range.judged_otherwise(o.accel_min) || gyro_range.judged_otherwise(o.gyro_min)) {
-    // The whole input shows another integer format than its first samples: again with its limits.
+// The stream's solve: its status, and the calibrator's progress before it (the readings as read).
+struct StreamSolve {
+  Status status = Status::kNotStarted;
+  Progress before{};  // progress before the solve (its hint, the faces and axes missing)
+};
+
+// Solve: the stream's calibration. When the whole input shows another integer format (so other
+// saturation limits) than its first samples did, the stream runs again with the whole input's
+// limits first (when the samples can be given again in full; else the advice says so). Then the
+// solve to its end, the rest open at the end listed as a pose even when the solve is refused for
+// too few poses. The calibrator's stream events and counts go to the run. False if the input
+// could not be given again (in.error() says why).
+template <typename Scalar>
+bool solve_stream(Input& in, FirstPass<Scalar>& f, const CalibratorSettings<Scalar>& cs,
+                  const Options& o, Run& run, StreamSolve& out) {
+  if (f.acc_range.judged_otherwise(o.accel_min) || f.gyro_range.judged_otherwise(o.gyro_min)) {
     if (in.complete()) {
-      pass = std::make_unique<Pass>(cs, true);
-      if (!in.again([&](const Sample& s) { pass->add(s); })) return failed_again();
+      f.pass = std::make_unique<CalibratorPass<Scalar>>(cs, true);
+      if (!in.again([&](const Sample& s) { f.pass->add(s); })) return false;
     } else {
       run.advice.push_back(
           "the readings showed their integer format (and so where they saturate) only after "
@@ -953,74 +937,98 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     }
   }
   run.kept_every = in.stride();
-  Status solved = pass->solve(true);
-  const Progress before_solve = pass->before_solve;
-  const StreamCounts sc = pass->stream;
-  for (auto& kv : pass->events) run.events.push_back(kv.second);
+  out.status = f.pass->solve(true);
+  out.before = f.pass->before_solve;
+  for (auto& kv : f.pass->events) run.events.push_back(kv.second);
+  run.stream_counts.clear();
+  for (const StreamCountName& name : kStreamCountNames)
+    run.stream_counts.push_back({name.label, name.key, f.pass->stream.*name.count});
+  return true;
+}
 
-  // Temperature: the biases against the rests' temperatures, about this calibration. With a
-  // usable part, the calibration runs again over the readings with the model applied (else it
-  // absorbs part of the drift and the model, fitted about it, sees less than there is), and the
-  // model is fitted again about the new calibration, until its slopes settle (0.1 sigma).
-  TemperatureModel<Scalar> tm, tm_applied;  // the model fitted; the one the readings had applied
-  bool have_tm = false;
-  Status tm_status = Status::kNotStarted;
+// The temperature model as the passes left it: the one fitted about the last calibration, and
+// the one the readings of that calibration had applied (passes > 0).
+template <typename Scalar>
+struct TemperaturePasses {
+  TemperatureModel<Scalar> model, applied;
+  bool have = false;  // the fit could start (its parts' statuses inside)
+  Status status = Status::kNotStarted;
+};
+
+// Temperature: the biases against the rests' temperatures, about the stream's calibration. With
+// a usable part, the calibration runs again over the readings with the model applied (raw +
+// b(T) - b0: else the calibration absorbs part of the drift and the model, fitted about it, sees
+// less than there is), and the model is fitted again about the new calibration, until its
+// slopes settle (0.1 sigma) or after kMaxPasses. The last pass replaces f.pass and its solve's
+// status `solved`; run.temperature gets whether the input has a temperature, the order and the
+// passes run. False if the input could not be given again (in.error() says why).
+template <typename Scalar>
+bool temperature_passes(Input& in, bool has_temperature, FirstPass<Scalar>& f,
+                        const CalibratorSettings<Scalar>& cs, const Options& o, Run& run,
+                        Status& solved, TemperaturePasses<Scalar>& t) {
   TemperatureResult& tr = run.temperature;
-  tr.present = reader.has_temperature();
+  tr.present = has_temperature;
   tr.order = o.temp_order;
   auto usable = [](const Calibration<Scalar>& c) {
     return succeeded(c.accel.status) && succeeded(c.gyro.status);
   };
-  if (tr.present && pass->cal->calibration().has_temperature && usable(pass->cal->calibration())) {
-    have_tm = fit_temperature(pass->cal->calibration(), pass->rests, o, tm, tm_status);
-    constexpr int kMaxPasses = 20;
-    if (have_tm && !in.complete())
-      run.advice.push_back(
-          "the calibration was not run again with the temperature model applied: the input "
-          "was longer than --memory holds and cannot be read again (stdin). Give it as a file.");
-    for (int k = 0; have_tm && in.complete() && k < kMaxPasses; ++k) {
-      if (!succeeded(tm.accel.status) && !succeeded(tm.gyro.status)) break;
-      auto next = std::make_unique<Pass>(cs, false);
-      Compensation<Scalar> compensate(tm, o, first_temp);
-      if (!in.again([&](const Sample& raw) {
-            Sample y = raw;
-            compensate(y);
-            next->add(y);
-          }))
-        return failed_again();
-      const Status solved2 = next->solve(false);
-      if (!usable(next->cal->calibration())) break;
-      for (RestSummary<Scalar>& r2 : next->rests) {  // back to raw means for the model
-        if (!r2.has_temperature) continue;
-        const double temp = static_cast<double>(r2.temperature_c);
-        r2.accel_mean -= bias_change(tm, tm.accel, temp).template cast<Scalar>();
-        r2.gyro_mean -= bias_change(tm, tm.gyro, temp).template cast<Scalar>();
-      }
-      TemperatureModel<Scalar> tm2;
-      Status st2 = Status::kNotStarted;
-      if (!fit_temperature(next->cal->calibration(), next->rests, o, tm2, st2)) break;
-      double change = 0;
-      for (const auto& [b_old, b_new] :
-           {std::make_pair(&tm.accel, &tm2.accel), std::make_pair(&tm.gyro, &tm2.gyro)}) {
-        if (!succeeded(b_new->status)) continue;
-        if (!succeeded(b_old->status)) change = HUGE_VAL;
-        for (int a = 0; a < 3; ++a) {
-          const double sd = std::max(static_cast<double>(b_new->b1_sigma(a)), 1e-30);
-          change =
-              std::max(change, std::abs(static_cast<double>(b_new->b1(a) - b_old->b1(a))) / sd);
-        }
-      }
-      pass = std::move(next);
-      tm_applied = tm;
-      tm = tm2;
-      tm_status = st2;
-      solved = solved2;
-      tr.passes = k + 1;
-      if (change < 0.1) break;
+  const Calibration<Scalar>& base = f.pass->cal->calibration();
+  if (!(tr.present && base.has_temperature && usable(base))) return true;
+  t.have = fit_temperature(base, f.pass->rests, o, t.model, t.status);
+  constexpr int kMaxPasses = 20;
+  if (t.have && !in.complete())
+    run.advice.push_back(
+        "the calibration was not run again with the temperature model applied: the input "
+        "was longer than --memory holds and cannot be read again (stdin). Give it as a file.");
+  for (int k = 0; t.have && in.complete() && k < kMaxPasses; ++k) {
+    if (!succeeded(t.model.accel.status) && !succeeded(t.model.gyro.status)) break;
+    auto next = std::make_unique<CalibratorPass<Scalar>>(cs, false);
+    Compensation<Scalar> compensate(t.model, o, f.first_temp);
+    if (!in.again([&](const Sample& raw) {
+          Sample y = raw;
+          compensate(y);
+          next->add(y);
+        }))
+      return false;
+    const Status solved2 = next->solve(false);
+    if (!usable(next->cal->calibration())) break;
+    for (RestSummary<Scalar>& r2 : next->rests) {  // back to raw means for the model
+      if (!r2.has_temperature) continue;
+      const double temp = static_cast<double>(r2.temperature_c);
+      r2.accel_mean -= bias_change(t.model, t.model.accel, temp).template cast<Scalar>();
+      r2.gyro_mean -= bias_change(t.model, t.model.gyro, temp).template cast<Scalar>();
     }
+    TemperatureModel<Scalar> tm2;
+    Status st2 = Status::kNotStarted;
+    if (!fit_temperature(next->cal->calibration(), next->rests, o, tm2, st2)) break;
+    double change = 0;
+    for (const auto& [b_old, b_new] :
+         {std::make_pair(&t.model.accel, &tm2.accel), std::make_pair(&t.model.gyro, &tm2.gyro)}) {
+      if (!succeeded(b_new->status)) continue;
+      if (!succeeded(b_old->status)) change = HUGE_VAL;
+      for (int a = 0; a < 3; ++a) {
+        const double sd = std::max(static_cast<double>(b_new->b1_sigma(a)), 1e-30);
+        change = std::max(change, std::abs(static_cast<double>(b_new->b1(a) - b_old->b1(a))) / sd);
+      }
+    }
+    f.pass = std::move(next);
+    t.applied = t.model;
+    t.model = tm2;
+    t.status = st2;
+    solved = solved2;
+    tr.passes = k + 1;
+    if (change < 0.1) break;
   }
-  const Calibrator<Scalar>& cal = *pass->cal;
-  const std::vector<RestSummary<Scalar>>& rests = pass->rests;
+  return true;
+}
+
+// Assemble the result, from the calibrator of the last pass: the collection's counts, each
+// sensor's status, parameters and sigmas, the quality and whether it is usable, the noise the
+// calibrator measured, the nominal models ("before": T = I, the scale the units say, the zero
+// given), and each pose's mean with its residual before and after (its times and per-sample
+// statistics come from window_statistics).
+template <typename Scalar>
+void assemble_result(const Calibrator<Scalar>& cal, Status solved, const Options& o, Run& run) {
   const Calibration<Scalar>& c = cal.calibration();
   const Progress p = cal.progress();
   run.poses = p.poses;
@@ -1031,9 +1039,6 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.moves_dropped = p.moves_dropped;
   run.faces = p.faces;
   run.faces_covered = p.faces_covered;
-  run.stream_counts.clear();
-  for (const StreamCountName& name : kStreamCountNames)
-    run.stream_counts.push_back({name.label, name.key, sc.*name.count});
   // A solve refused before the accelerometer started (too few poses) says so there.
   run.accel_status = to_string(c.accel.status == Status::kNotStarted ? solved : c.accel.status);
   run.accel_ok = succeeded(c.accel.status);
@@ -1043,51 +1048,40 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   run.gyro_ok = succeeded(c.gyro.status);
   run.gyro_iterations = c.gyro.iterations;
   run.gyro_bias_refined = c.gyro.bias_refined;
-  run.quality = quality_name(c.quality);
+  run.quality = to_string(c.quality);
   run.quality_level = static_cast<int>(c.quality);
   run.quality_reason = cal.quality_reason();
   if (!run.has_gyro) run.gyro_status = "not in the input";
   run.usable = run.accel_ok && (run.gyro_ok || !run.has_gyro);
-  advise(before_solve, p, o, run);
-  if (!run.accel_ok && run.poses >= kAccelMinPoses)
-    run.advice.push_back("the accelerometer was not calibrated (" + run.accel_status +
-                         "): the poses do not determine its 9 parameters; add orientations "
-                         "with each face up and some tilted between two faces.");
-  else if (run.accel_ok && run.has_gyro && !run.gyro_ok)
-    run.advice.push_back("the gyroscope was not calibrated (" + run.gyro_status +
-                         "): turn between the poses about all three body axes, and do not stop "
-                         "the recording while turning.");
-  if (run.accel_ok) advise_parameters(c.accel, run);
-  for (int k = 0; k < 9; ++k) {
+  for (int k = 0; k < kAccelParams; ++k) {
     run.accel_params[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.params(k));
     run.accel_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.accel.sigma(k));
   }
-  for (int k = 0; k < 12; ++k) {
+  for (int k = 0; k < kGyroParams; ++k) {
     run.gyro_params[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.params(k));
     run.gyro_sigma[static_cast<std::size_t>(k)] = static_cast<double>(c.gyro.sigma(k));
   }
   measured_noise<Scalar>(cal, c, o, run);
-  // Nominal models ("before"): T = I, the scale the units say, the zero the user gave.
   const double zero = accel_nominal_zero(o);
   const double sa = accel_nominal_scale(o);
   run.have_nominal_accel = std::isfinite(sa) && std::isfinite(zero);
   run.accel_nominal.fill(0.0);
   for (int a = 0; a < 3; ++a) {
-    run.accel_nominal[static_cast<std::size_t>(3 + a)] = sa;
-    run.accel_nominal[static_cast<std::size_t>(6 + a)] = -zero;
+    run.accel_nominal[static_cast<std::size_t>(kScaleX + a)] = sa;
+    run.accel_nominal[static_cast<std::size_t>(kBiasX + a)] = -zero;
   }
   const double sg = gyro_nominal_scale(o);
   run.have_nominal_gyro = sg > 0;
   run.gyro_nominal.fill(0.0);
   for (int a = 0; a < 3; ++a) {
-    run.gyro_nominal[static_cast<std::size_t>(6 + a)] = sg;
-    run.gyro_nominal[static_cast<std::size_t>(9 + a)] = static_cast<double>(cal.gyro_bias0()(a));
+    run.gyro_nominal[static_cast<std::size_t>(kGyroScaleX + a)] = sg;
+    run.gyro_nominal[static_cast<std::size_t>(kGyroBiasX + a)] =
+        static_cast<double>(cal.gyro_bias0()(a));
   }
-
-  // Poses: means and residuals; their times and per-sample statistics from the pass below.
   const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
   const AccelVector<double> pn = Eigen::Map<const AccelVector<double>>(run.accel_nominal.data());
   const PoseSpan<Scalar> poses = cal.poses();
+  std::vector<double> before, after;
   for (int i = 0; i < poses.size; ++i) {
     PoseResult pr;
     pr.samples = static_cast<int>(poses[i].samples);
@@ -1100,27 +1094,34 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
       for (int a = 0; a < 3; ++a) pr.up[a] = up(a);
     }
     if (run.have_nominal_accel) pr.residual_before = o.gravity - accel_apply(pn, mean).norm();
-    run.pose_list.push_back(pr);
-  }
-  std::vector<double> before, after;
-  for (const PoseResult& pr : run.pose_list) {
     before.push_back(pr.residual_before);
     after.push_back(pr.residual_after);
+    run.pose_list.push_back(pr);
   }
   run.accel_pose_rms_before = rms(before);
   run.accel_pose_rms_after = rms(after);
+}
 
-  // One more pass over the samples: each pose's window by the device's clock (its first and last
-  // sample's times, its magnetometer readings), per sample in the windows |g| - |a_cal| and the
-  // scatter of |a_cal| about its pose's mean (the sensor's own noise, a floor no calibration goes
-  // below), on the readings the calibration saw (with the temperature model applied, if it was);
-  // and the page's samples.
-  const std::vector<std::array<std::int64_t, 2>>& windows = pass->windows;
+// Window statistics: one more pass over the samples, on the readings the calibration saw (the
+// temperature model applied if it was): each pose's window by the device's clock (its first and
+// last sample's times, its magnetometer readings' mean into `mag_windows`), per sample in the
+// windows |g| - |a_cal| and the scatter of |a_cal| about its pose's mean (the sensor's own
+// noise, a floor no calibration goes below), imu_tk's cost over each pose's first samples, the
+// rests split in two by a bump; and the page's samples when it is asked for. False if the input
+// could not be given again (in.error() says why).
+template <typename Scalar>
+bool window_statistics(Input& in, const CalibratorPass<Scalar>& pass,
+                       const TemperaturePasses<Scalar>& t, double first_temp, const Options& o,
+                       Run& run, std::vector<Sample>& page, std::vector<MagWindow>& mag_windows) {
+  const AccelVector<double> pa = Eigen::Map<const AccelVector<double>>(run.accel_params.data());
+  const std::vector<std::array<std::int64_t, 2>>& windows = pass.windows;
   std::vector<WindowStats> stats(windows.size());
   std::unique_ptr<Compensation<Scalar>> compensate;
-  if (tr.passes > 0) compensate = std::make_unique<Compensation<Scalar>>(tm_applied, o, first_temp);
+  if (run.temperature.passes > 0)
+    compensate = std::make_unique<Compensation<Scalar>>(t.applied, o, first_temp);
   std::unique_ptr<PageSamples> pages;
-  if (want_page) pages = std::make_unique<PageSamples>(run.t_first, run.t_last, run.samples);
+  if (!o.svg_path.empty())
+    pages = std::make_unique<PageSamples>(run.t_first, run.t_last, run.samples);
   std::size_t at = 0;  // the window a sample is in, or the next
   const bool again = in.again([&](const Sample& raw) {
     if (pages) pages->add(raw);
@@ -1146,11 +1147,10 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
       w.sum_noise += (norm - mean_norm) * (norm - mean_norm);
     }
   });
-  if (!again) return failed_again();
+  if (!again) return false;
   if (pages) page = pages->take();
   double sum = 0, sum_noise = 0, sum_first = 0;
   long in_windows = 0, first = 0;
-  std::vector<MagWindow> mag_windows;
   for (std::size_t i = 0; i < stats.size(); ++i) {
     run.pose_list[i].t_begin = stats[i].t_begin;
     run.pose_list[i].t_end = stats[i].t_end;
@@ -1184,51 +1184,74 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     run.accel_imu_tk_samples = first;
   }
   run.input_reads = in.reads();
+  return true;
+}
 
-  // Moves: the angle between carried and measured gravity, nominal and calibrated gyro model
-  // (gravity directions from the calibrated accelerometer in both).
-  if (run.accel_ok && run.has_gyro) {
-    const Vector3<double> b0 = cal.gyro_bias0().template cast<double>();
-    const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
-    const GyroVector<double> pgn = Eigen::Map<const GyroVector<double>>(run.gyro_nominal.data());
-    before.clear();
-    after.clear();
-    for (int i = 0; i < cal.move_count(); ++i) {
-      const GyroMove& mv = cal.move(i);
-      MoveResult m;
-      m.from = mv.from_pose;
-      m.to = mv.to_pose;
-      m.segments = mv.segments;
-      for (int k = 0; k < mv.segments; ++k)
-        m.duration += static_cast<double>(cal.segment(mv.first_segment + k).duration);
-      if (run.have_nominal_gyro)
-        m.angle_before = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pgn),
-                                            Vector3<double>::Zero(), run.pose_list);
-      if (run.gyro_ok)
-        m.angle_after = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pg),
-                                           Vector3<double>(pg.tail<3>() - b0), run.pose_list);
-      before.push_back(m.angle_before);
-      after.push_back(m.angle_after);
-      run.move_list.push_back(m);
-    }
-    run.gyro_rms_before = rms(before);
-    run.gyro_rms_after = rms(after);
-    if (run.gyro_ok && !after.empty()) {
-      double cost = 0;
-      for (double deg : after) {
-        if (!std::isfinite(deg)) continue;
-        const double chord = 2 * std::sin(0.5 * deg / kDeg);
-        cost += 0.5 * chord * chord;
-      }
-      run.gyro_imu_tk_cost = cost;
-    }
+// The moves: for each, the angle between gravity carried over it by the gyro model and the
+// gravity measured after it, with the nominal and with the calibrated model (the gravity
+// directions from the calibrated accelerometer in both), their RMS, and imu_tk's cost.
+template <typename Scalar>
+void move_results(const Calibrator<Scalar>& cal, Run& run) {
+  if (!run.accel_ok || !run.has_gyro) return;
+  const Vector3<double> b0 = cal.gyro_bias0().template cast<double>();
+  const GyroVector<double> pg = Eigen::Map<const GyroVector<double>>(run.gyro_params.data());
+  const GyroVector<double> pgn = Eigen::Map<const GyroVector<double>>(run.gyro_nominal.data());
+  std::vector<double> before, after;
+  for (int i = 0; i < cal.move_count(); ++i) {
+    const GyroMove& mv = cal.move(i);
+    MoveResult m;
+    m.from = mv.from_pose;
+    m.to = mv.to_pose;
+    m.segments = mv.segments;
+    for (int k = 0; k < mv.segments; ++k)
+      m.duration += static_cast<double>(cal.segment(mv.first_segment + k).duration);
+    if (run.have_nominal_gyro)
+      m.angle_before = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pgn),
+                                          Vector3<double>::Zero(), run.pose_list);
+    if (run.gyro_ok)
+      m.angle_after = move_angle<Scalar>(cal, mv, gyro_matrix<double>(pg),
+                                         Vector3<double>(pg.tail<3>() - b0), run.pose_list);
+    before.push_back(m.angle_before);
+    after.push_back(m.angle_after);
+    run.move_list.push_back(m);
   }
+  run.gyro_rms_before = rms(before);
+  run.gyro_rms_after = rms(after);
+  if (run.gyro_ok && !after.empty()) {
+    double cost = 0;
+    for (double deg : after) {
+      if (!std::isfinite(deg)) continue;
+      const double chord = 2 * std::sin(0.5 * deg / kDeg);
+      cost += 0.5 * chord * chord;
+    }
+    run.gyro_imu_tk_cost = cost;
+  }
+}
 
-  MagCalibration<Scalar> mc;
-  MagResult& m = run.mag;
-  finish_magnetometer<Scalar>(*mag, o, mag_windows, run.accel_ok ? &c.accel : nullptr, run, mc);
+// Advise: what to do next, in words, from the calibrator's progress before the solve and after
+// it (advise()), a sensor that was not calibrated, and the accelerometer's held or weak
+// parameters.
+template <typename Scalar>
+void advise_run(const Progress& before_solve, const Calibrator<Scalar>& cal, const Options& o,
+                Run& run) {
+  advise(before_solve, cal.progress(), o, run);
+  if (!run.accel_ok && run.poses >= kAccelMinPoses)
+    run.advice.push_back("the accelerometer was not calibrated (" + run.accel_status +
+                         "): the poses do not determine its 9 parameters; add orientations "
+                         "with each face up and some tilted between two faces.");
+  else if (run.accel_ok && run.has_gyro && !run.gyro_ok)
+    run.advice.push_back("the gyroscope was not calibrated (" + run.gyro_status +
+                         "): turn between the poses about all three body axes, and do not stop "
+                         "the recording while turning.");
+  if (run.accel_ok) advise_parameters(cal.calibration().accel, run);
+}
 
-  // The temperature model as fitted above; the rests as raw means (the plots' points).
+// The temperature model into the run: as fitted (its parts' statuses, coefficients and sigmas),
+// or why there is none; the rests with a temperature as raw means (the plots' points).
+template <typename Scalar>
+void temperature_result(const std::vector<RestSummary<Scalar>>& rests, const Calibration<Scalar>& c,
+                        const TemperaturePasses<Scalar>& t, Run& run) {
+  TemperatureResult& tr = run.temperature;
   for (const RestSummary<Scalar>& rs : rests) {
     if (!rs.has_temperature) continue;
     TemperatureRest x;
@@ -1248,9 +1271,10 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     tr.status = "needs the gyroscope too (not in the input)";
   } else if (!run.usable) {
     tr.status = "needs a usable accelerometer and gyroscope calibration";
-  } else if (!have_tm) {
-    tr.status = to_string(tm_status);
+  } else if (!t.have) {
+    tr.status = to_string(t.status);
   } else {
+    const TemperatureModel<Scalar>& tm = t.model;
     tr.reference_c = static_cast<double>(tm.reference_c);
     tr.min_c = static_cast<double>(tm.min_c);
     tr.max_c = static_cast<double>(tm.max_c);
@@ -1269,15 +1293,64 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
     };
     fill(tm.accel, tr.accel);
     fill(tm.gyro, tr.gyro);
-    tr.status = tr.accel.ok || tr.gyro.ok ? "ok" : to_string(tm_status);
+    tr.status = tr.accel.ok || tr.gyro.ok ? "ok" : to_string(t.status);
   }
-  if (tr.status != "ok") {
-    tr.accel.status = tr.gyro.status = tr.status;
+  if (tr.status != "ok") tr.accel.status = tr.gyro.status = tr.status;
+}
+
+// One calibration run over the reader's samples, in Scalar (float as on the device, or the
+// double reference): the steps above in order, or a magnetometer alone, or a file of poses.
+// Returns the exit code: 0 usable, 1 not, 2 no sample or an input that could not be read again
+// (the reason in `diag`). `page`: the samples the report page draws, when it is asked for.
+template <typename Scalar>
+int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diagnostics& diag,
+                    Run& run, std::vector<Sample>& page) {
+  describe_input<Scalar>(reader, o, run);
+  Input in(reader, diag, reopen, o, run.has_gyro);
+  FirstPass<Scalar> f = stream_first_pass<Scalar>(in, reader, o, run);
+  const std::string input_name = o.files.empty() ? "" : o.files[0];
+  if (run.samples == 0) {
+    diag.add({input_name, 0, 0, "no samples"});
+    return 2;
+  }
+  auto failed_again = [&] {
+    diag.add({input_name, 0, 0, in.error()});
+    return 2;
+  };
+  if (run.mode == "magnetometer") {
+    const int code = magnetometer_alone<Scalar>(o, *f.mag, run);
+    if (!o.svg_path.empty()) {
+      PageSamples pages(run.t_first, run.t_last, run.samples);
+      if (!in.again([&](const Sample& s) { pages.add(s); })) return failed_again();
+      page = pages.take();
+    }
+    return code;
+  }
+  if (run.mode == "poses") {
+    if (!o.svg_path.empty()) page = f.pose_lines;
+    return pose_file<Scalar>(o, f.pose_lines, run);
   }
 
+  const CalibratorSettings<Scalar> cs = calibrator_settings<Scalar>(o, run);
+  StreamSolve solve;
+  if (!solve_stream(in, f, cs, o, run, solve)) return failed_again();
+  TemperaturePasses<Scalar> t;
+  if (!temperature_passes(in, reader.has_temperature(), f, cs, o, run, solve.status, t))
+    return failed_again();
+  const Calibrator<Scalar>& cal = *f.pass->cal;
+  const Calibration<Scalar>& c = cal.calibration();
+  assemble_result(cal, solve.status, o, run);
+  advise_run(solve.before, cal, o, run);
+  std::vector<MagWindow> mag_windows;
+  if (!window_statistics(in, *f.pass, t, f.first_temp, o, run, page, mag_windows))
+    return failed_again();
+  move_results(cal, run);
+  MagCalibration<Scalar> mc;
+  finish_magnetometer<Scalar>(*f.mag, o, mag_windows, run.accel_ok ? &c.accel : nullptr, run, mc);
+  temperature_result(f.pass->rests, c, t, run);
   // The record the device would store: from the calibration itself (float, as on the device),
   // with the magnetometer and the temperature model where usable (make_record leaves the rest).
-  make_run_record<Scalar>(c, m.ok ? &mc : nullptr, have_tm ? &tm : nullptr, o, run);
+  make_run_record<Scalar>(c, run.mag.ok ? &mc : nullptr, t.have ? &t.model : nullptr, o, run);
   return run.usable ? 0 : 1;
 }
 
@@ -1291,13 +1364,6 @@ void print_diagnostics(const Diagnostics& diag) {
 // command's, and checked before any sample is read. False with the reason otherwise.
 bool settle_options(SampleReader& reader, Options& o, std::string& error) {
   if (!apply_file_settings(reader.file_settings(), o, error)) return false;
-  if (!(o.min_rest <= 600 && o.initial_rest <= 3600)) {
-    error = format_text(
-        "--initial-rest (%g s) must be at most 3600 s, --min-rest (%g s) at most "
-        "600 s",
-        o.initial_rest, o.min_rest);
-    return false;
-  }
   if (o.mag_unit == MagUnit::kCounts && !std::isfinite(o.mag_lsb_per_ut)) {
     error = format_text(
         "--mag-unit counts needs the nominal --mag-lsb-per-ut (counts per uT, "
@@ -1373,6 +1439,13 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     std::fprintf(stderr, "imucal: no input (a CSV file, - for stdin, or two imu_tk files)\n");
     return 2;
   }
+  std::vector<std::string> inputs = o.files;
+  inputs.push_back(o.truth_path);
+  if (!outputs_apart_from_inputs(inputs, {{"--json", o.json_path},
+                                          {"--header", o.header_path},
+                                          {"--record", o.record_path},
+                                          {report ? "-o" : "--svg", o.svg_path}}))
+    return 2;
   Diagnostics diag;
   SampleReader reader;
   const std::string columns = o.columns;
@@ -1442,30 +1515,37 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
   return code;
 }
 
-bool open_arrays(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, Options& o, SampleReader& reader, Diagnostics& diag,
-                 std::string& error) {
+bool open_arrays(const std::vector<std::string>& args, const SampleArrays& arrays, Options& o,
+                 SampleReader& reader, Diagnostics& diag, std::string& error) {
   std::vector<std::string> all = args;
   all.push_back("<arrays>");  // the input's name in messages
   if (!parse_calibrate_options(all, o, error)) return false;
-  if (reader.open_records(std::move(records), columns, diag)) return true;
+  if (reader.open_arrays(arrays, diag)) return true;
   error = diag.kept().empty() ? "the columns cannot be read" : diag.kept()[0].message;
   return false;
 }
 
-int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                     const std::string& columns, MemoryRun& out) {
+int calibrate_memory(const std::vector<std::string>& args, const SampleArrays& arrays,
+                     MemoryRun& out) {
   Options o;
   Diagnostics diag;
   SampleReader reader;
-  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error) ||
+  if (!open_arrays(args, arrays, o, reader, diag, out.error) ||
       !settle_options(reader, o, out.error))
     return 2;
   o.quiet = true;
   if (o.record_path.empty()) o.record_path = "<memory>";  // the record is made, not written
+  // The arrays are read again for the passes after the first, as a file is: beyond --memory
+  // nothing is kept.
+  const Reopen reopen = [&](SampleReader& r, Diagnostics& d) {
+    if (!r.open_arrays(arrays, d)) return false;
+    r.set_time_unit(o.time_unit);
+    r.set_rate(o.nominal_rate_hz);
+    return true;
+  };
   Run run;
   std::vector<Sample> page;
-  const int code = calibrate_from(o, reader, Reopen(), diag, run, page);
+  const int code = calibrate_from(o, reader, reopen, diag, run, page);
   if (run.samples == 0) {
     out.error = "no samples";
     return 2;

@@ -1,7 +1,9 @@
 // tools/imucal/cli.cpp: the subcommands and the help text.
 #include "cli.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <new>
 
 namespace imucal::cli {
@@ -43,13 +45,16 @@ Options (calibrate, report):
   --time-unit s|ms|us             unit of t (default s)
   --accel-unit counts|g|mps2      raw accelerometer unit (default mps2)
   --gyro-unit counts|dps|rads     raw gyroscope unit (default rads)
-  --accel-lsb-per-g N             nominal counts per g (counts: gives the "before" residual)
-  --accel-zero Z                  nominal raw reading at 0 g (e.g. 32768; default 0)
-  --gyro-lsb-per-dps N            nominal counts per deg/s (counts: else the scale is searched)
-  --gravity G                     local gravity, m/s^2 (default 9.80665)
+  --accel-lsb-per-g N             nominal counts per g, 1 .. 1e8 (counts: gives the "before"
+                                  residual)
+  --accel-zero Z                  nominal raw reading at 0 g (e.g. 32768; default 0), within
+                                  -2147483648 .. 2147483647
+  --gyro-lsb-per-dps N            nominal counts per deg/s, 0.01 .. 1e7 (counts: else the scale
+                                  is searched)
+  --gravity G                     local gravity, m/s^2, 9.7 .. 9.9 (default 9.80665)
   --initial-rest S                the shortest still period that starts the run: the first one found
-                                  gives the starting gyro bias and noise (default 2)
-  --min-rest S                    shorter still spells are not poses (default 0.6)
+                                  gives the starting gyro bias and noise (0.1 .. 3600, default 2)
+  --min-rest S                    shorter still spells are not poses (0.05 .. 600, default 0.6)
   --accel-range LO,HI             the accelerometer's full scale, raw units (e.g. 0,65535): a
                                   reading at or beyond it is saturated (counted, taken as motion).
                                   In counts without it: readings all integers in -32768..32767
@@ -57,8 +62,9 @@ Options (calibrate, report):
                                   format's limits is saturated (the summary says so)
   --gyro-range LO,HI              the gyroscope's (a saturated sample is counted and refused;
                                   inferred in counts as for the accelerometer)
-  --rate HZ                       the configured sample rate: with a t column, seconds far from
-                                  it are counted; without one, sample i is at i/HZ s
+  --rate HZ                       the configured sample rate, 0.1 .. 100000: with a t column,
+                                  seconds far from it are counted; without one, sample i is at
+                                  i/HZ s
   --columns NAMES                 the columns of a file, in order, comma-separated: t, ax, ay,
                                   az, gx, gy, gz (or wx, wy, wz), temp, mx, my, mz; - or _ skips
                                   one (e.g. --columns ax,ay,az,gx,gy,gz); wins over a header line
@@ -67,14 +73,15 @@ Options (calibrate, report):
                                   accelerometer alone, solved from the poses
   --refine-gyro-bias              estimate the gyro bias with the rest (12 parameters)
   --double                        run the double-precision reference instead of float
-  --memory MB                     the memory the samples are kept in between passes (default
-                                  256): beyond it a file is read again, and stdin keeps every
-                                  k-th sample (the summary says which)
+  --memory MB                     the memory the samples are kept in between passes (4 ..
+                                  1048576, default 256): beyond it a file is read again, and
+                                  stdin keeps every k-th sample (the summary says which)
+  A number outside its range above is bad usage (exit 2), from the command line or a file.
 
 Magnetometer (mx, my, mz; m_cal = S (m_raw + h), h added, S in uT per raw unit):
   --mag-unit counts|ut|nt|gauss   raw magnetometer unit (default ut)
-  --mag-lsb-per-ut N              nominal counts per uT: required with counts (the field bounds
-                                  and S are in uT)
+  --mag-lsb-per-ut N              nominal counts per uT, 0.01 .. 1e6: required with counts (the
+                                  field bounds and S are in uT)
   --mag-field-range LO,HI         accepted local field strength, uT (default 20,70)
   --mag-min-coverage F            fraction of the directions that must hold a sample (default 0.5)
   --no-mag-align                  keep S symmetric: no rotation into the accelerometer frame
@@ -83,7 +90,8 @@ Magnetometer (mx, my, mz; m_cal = S (m_raw + h), h added, S in uT per raw unit):
 
 Temperature (temp, deg C; b(T) = b0 + b1 (T - T0) + b2 (T - T0)^2 replaces the added bias):
   --temp-order 1|2                linear or quadratic in T (default 1)
-  --temp-min-span DEGC            the poses' temperatures must span this much (default 5)
+  --temp-min-span DEGC            the poses' temperatures must span this much (0.1 .. 200,
+                                  default 5)
   Fitted from the poses' mean readings and temperatures, about the calibration; T0 is the
   recording's mean temperature. The accelerometer part needs poses in varied orientations.
 
@@ -115,25 +123,36 @@ accelerometer or the magnetometer alone), 1 none (the summary says why), 2 bad u
 `imucal record`: 0 a valid record, 1 not valid, 2 bad usage or an unreadable file.
 )";
 
+// The command's exit code, or 2 (the reason on stderr) if what it printed did not all reach
+// stdout: a full disk or device, a pipe's reader gone with an error.
+int stdout_written(int code) {
+  errno = 0;
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return code;
+  const int error = errno;
+  std::fprintf(stderr, "imucal: cannot write to stdout: %s\n",
+               error != 0 ? std::strerror(error) : "an earlier write failed");
+  return 2;
+}
+
 }  // namespace
 
 int imucal_main(const std::vector<std::string>& args) {
   if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
     std::fputs(kHelp, args.empty() ? stderr : stdout);
-    return args.empty() ? 2 : 0;
+    return stdout_written(args.empty() ? 2 : 0);
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   try {
-    if (args[0] == "calibrate") return calibrate_command(rest, false);
-    if (args[0] == "report") return calibrate_command(rest, true);
-    if (args[0] == "simulate") return simulate_command(rest);
-    if (args[0] == "record") return record_command(rest);
-    if (args[0] == "noise") return noise_command(rest);
+    if (args[0] == "calibrate") return stdout_written(calibrate_command(rest, false));
+    if (args[0] == "report") return stdout_written(calibrate_command(rest, true));
+    if (args[0] == "simulate") return stdout_written(simulate_command(rest));
+    if (args[0] == "record") return stdout_written(record_command(rest));
+    if (args[0] == "noise") return stdout_written(noise_command(rest));
   } catch (const std::bad_alloc&) {
-    // calibrate, report and noise hold every sample of the recording (up to 100 bytes each).
+    // calibrate and report keep up to --memory MB of samples between passes.
     std::fprintf(stderr,
-                 "imucal %s: out of memory (it holds the whole recording, up to 100 bytes a "
-                 "sample): give it a shorter recording, or run it where there is more memory\n",
+                 "imucal %s: out of memory: give a smaller --memory (the samples kept between "
+                 "passes; default 256 MB), or run it where there is more memory\n",
                  args[0].c_str());
     return 2;
   }

@@ -30,22 +30,22 @@ int simulate_command(const std::vector<std::string>& args);
 int record_command(const std::vector<std::string>& args);
 int noise_command(const std::vector<std::string>& args);
 
-// `imucal calibrate` over samples in memory (the Python package): `args` are the command's
-// options (no input files), `columns` names what each Record holds (as --columns: e.g.
-// "t,ax,ay,az,gx,gy,gz"). Returns the command's exit code; fills what it would print and write.
+// `imucal calibrate` over samples in memory (the Python package's arrays, read where they are,
+// as often as a file would be: the memory kept is bounded by --memory whatever their length):
+// `args` are the command's options (no input files). Returns the command's exit code; fills
+// what it would print and write.
 struct MemoryRun {
   std::string error;                 // exit code 2: why
   std::string summary;               // the summary the command prints
   std::string json;                  // what --json writes
   std::vector<std::uint8_t> record;  // what --record writes (empty if not usable)
 };
-int calibrate_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                     const std::string& columns, MemoryRun& out);
-// The options (`args`, the input named <arrays>) and the reader over `records`, for the memory
+int calibrate_memory(const std::vector<std::string>& args, const SampleArrays& arrays,
+                     MemoryRun& out);
+// The options (`args`, the input named <arrays>) and the reader over `arrays`, for the memory
 // runs. False with the reason.
-bool open_arrays(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, Options& o, SampleReader& reader, Diagnostics& diag,
-                 std::string& error);
+bool open_arrays(const std::vector<std::string>& args, const SampleArrays& arrays, Options& o,
+                 SampleReader& reader, Diagnostics& diag, std::string& error);
 
 // `imucal noise` over samples in memory: its summary, --json, --kalibr and (with --svg) page.
 struct NoiseRun {
@@ -53,7 +53,6 @@ struct NoiseRun {
   std::string summary, json, kalibr, svg;  // kalibr: empty unless the units are SI
   std::vector<std::string> diagnostics;
 };
-int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, NoiseRun& out);
+int noise_memory(const std::vector<std::string>& args, const SampleArrays& arrays, NoiseRun& out);
 
 }  // namespace imucal::cli

@@ -4,12 +4,12 @@
 #include <sys/stat.h>
 
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstring>
-#include <tuple>
 #include <utility>
+
+#include "format_reader.hpp"
 
 namespace imucal::cli {
 
@@ -42,11 +42,16 @@ bool LineReader::open(const std::string& path, Diagnostics& diag, std::size_t ma
     diag.add({path, 0, 0, std::string("cannot open: ") + std::strerror(errno)});
     return false;
   }
+  struct stat st {};
+  const bool known = fstat(fileno(f), &st) == 0;
+  if (known && S_ISDIR(st.st_mode)) {
+    std::fclose(f);
+    diag.add({path, 0, 0, "is a directory, not a recording"});
+    return false;
+  }
   open_stream(f, path, max_line, block);
   owns_ = true;
-  struct stat st {};
-  if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode))
-    size_ = static_cast<std::uint64_t>(st.st_size);
+  if (known && S_ISREG(st.st_mode)) size_ = static_cast<std::uint64_t>(st.st_size);
   return true;
 }
 
@@ -89,7 +94,53 @@ std::string_view LineReader::unread() const {
                       : std::string_view(buf_.get() + begin_, end_ - begin_);
 }
 
+namespace {
+
+// Why the start of an input (its first line, at most max_line + 1 bytes of it) is not the text
+// of a recording: a UTF-16 or UTF-32 text, NUL bytes only, binary data, lines ended by a
+// carriage return alone; empty if it can be.
+std::string not_text(std::string_view head) {
+  auto starts = [&](std::string_view prefix) { return head.substr(0, prefix.size()) == prefix; };
+  const char* const save_as = ": save it as UTF-8 or ASCII (e.g. iconv -f ";
+  if (starts(std::string_view("\xff\xfe\0\0", 4)) || starts(std::string_view("\0\0\xfe\xff", 4)))
+    return std::string("UTF-32 text (a byte-order mark)") + save_as + "UTF-32 -t UTF-8)";
+  if (starts("\xff\xfe") || starts("\xfe\xff"))
+    return std::string("UTF-16 text (the byte-order mark ") +
+           (head[0] == '\xff' ? "FF FE" : "FE FF") + ")" + save_as + "UTF-16 -t UTF-8)";
+  const std::size_t nul = head.find('\0');
+  if (nul != std::string_view::npos) {
+    if (head.find_first_not_of('\0') == std::string_view::npos)
+      return "NUL bytes only (the first " + std::to_string(head.size()) +
+             " bytes): not a text recording (a file never written, or an erased card?)";
+    // Every other byte NUL, the others ASCII: UTF-16 without a byte-order mark.
+    std::size_t at[2] = {0, 0}, n = std::min<std::size_t>(head.size(), 256) & ~std::size_t{1};
+    for (std::size_t k = 0; k < n; ++k) at[k & 1] += head[k] == '\0';
+    for (int odd = 0; odd < 2; ++odd)
+      if (n >= 4 && at[odd] == n / 2 && at[1 - odd] == 0)
+        return std::string("UTF-16 text (") + (odd ? "little" : "big") +
+               "-endian, no byte-order mark: every other byte is NUL)" + save_as +
+               (odd ? "UTF-16LE" : "UTF-16BE") + " -t UTF-8)";
+    return "binary data, not a text recording (a NUL byte at byte " + std::to_string(nul + 1) +
+           " of line 1)";
+  }
+  for (std::size_t cr = head.find('\r'); cr != std::string_view::npos; cr = head.find('\r', cr + 1))
+    if (cr + 1 < head.size() && head[cr + 1] != '\r' && head[cr + 1] != '\n')
+      return "the lines end in a carriage return alone (CR, as classic Mac OS wrote them): "
+             "convert them to LF (e.g. tr '\\r' '\\n')";
+  return "";
+}
+
+// How many fields a line of `text` has (commas and semicolons separate them).
+std::uint64_t separators(std::string_view text) {
+  std::uint64_t n = 0;
+  for (char c : text) n += c == ',' || c == ';';
+  return n;
+}
+
+}  // namespace
+
 bool LineReader::next(std::string_view& line, Diagnostics& diag) {
+  if (ended_) return false;
   for (;;) {
     std::string_view rest = unread();
     const std::size_t nl = rest.find('\n');
@@ -109,28 +160,52 @@ bool LineReader::next(std::string_view& line, Diagnostics& diag) {
       return false;
     }
     std::size_t len = complete ? nl : rest.size();
+    // The first line says whether this is text at all (not UTF-16, binary, NUL bytes, or lines
+    // ended by CR alone): if not, the input ends here.
+    if (line_ == 0) {
+      const std::string why = not_text(rest.substr(0, std::min(len, max_line_ + 1)));
+      if (!why.empty()) {
+        diag.add({name_, 1, 0, why});
+        ended_ = true;
+        return false;
+      }
+    }
     // A stream's incomplete line here is longer than max_line (the buffer's end, not the line's,
     // so a '\r' there is not its terminator).
     const bool whole = complete || from_memory_ || eof_;
     const std::size_t text_len = whole && len > 0 && rest[len - 1] == '\r' ? len - 1 : len;
     ++line_;
     if (text_len > max_line_) {
-      diag.add({name_, line_, 0,
-                "line longer than " + std::to_string(max_line_) + " characters: skipped"});
-      // Skip to the end of this line, however long.
+      // Skip to the end of this line, up to max_skip characters: a longer one (an endless line,
+      // binary data without a line end) ends the input there.
+      std::uint64_t chars = 0, fields = 1;
       for (;;) {
         rest = unread();
         const std::size_t at = rest.find('\n');
-        if (at != std::string_view::npos) {
-          begin_ += at + 1;
-          consumed_ += at + 1;
+        const std::size_t take = at != std::string_view::npos ? at : rest.size();
+        chars += take;
+        fields += separators(rest.substr(0, take));
+        if (chars > max_skip()) {
+          ended_ = true;
           break;
         }
-        begin_ += rest.size();
-        consumed_ += rest.size();
-        if (from_memory_ || eof_) break;
+        begin_ += at != std::string_view::npos ? at + 1 : take;
+        consumed_ += at != std::string_view::npos ? at + 1 : take;
+        if (at != std::string_view::npos || from_memory_ || eof_) break;
         fill();
       }
+      if (ended_) {
+        diag.add({name_, line_, 0,
+                  "line longer than " + std::to_string(max_skip()) +
+                      " characters (no line end within them): not a recording of text lines; "
+                      "the input is read no further"});
+        return false;
+      }
+      ++long_lines_;
+      diag.add({name_, line_, 0,
+                "line longer than " + std::to_string(max_line_) + " characters (" +
+                    std::to_string(chars) + " characters, " + std::to_string(fields) +
+                    " fields): skipped"});
       continue;
     }
     line = rest.substr(0, text_len);
@@ -325,607 +400,103 @@ bool parse_number(std::string_view text, double& out) {
   return r.ec == std::errc() && r.ptr == end;
 }
 
-namespace {
-
-std::string lower(std::string_view s) {
-  std::string r(s);
-  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return r;
-}
-
-std::string quoted(std::string_view s) {
-  constexpr std::size_t kShown = 24;
-  std::string r = "'";
-  for (std::size_t i = 0; i < s.size() && i < kShown; ++i) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    if (std::isprint(c)) {
-      r += static_cast<char>(c);
-    } else {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "\\x%02x", c);
-      r += hex;
-    }
-  }
-  if (s.size() > kShown) r += "...";
-  return r + "'";
-}
-
-// "# imucal: key=value key=value" -> settings, separated by blanks, commas or semicolons. A
-// piece without '=' continues the previous value after a comma: "accel-range=0,65535".
-// False if the comment is not a settings comment. With out == nullptr it only tells.
-bool parse_settings(std::string_view line, const LineReader& in, std::vector<FileSetting>* out) {
-  std::string_view rest = line.substr(1);
-  while (!rest.empty() && (rest.front() == ' ' || rest.front() == '\t')) rest.remove_prefix(1);
-  constexpr std::string_view kTag = "imucal:";
-  if (rest.substr(0, kTag.size()) != kTag) return false;
-  if (out == nullptr) return true;
-  rest.remove_prefix(kTag.size());
-  auto separator = [](char c) { return c == ' ' || c == '\t' || c == ',' || c == ';'; };
-  const std::size_t first = out->size();
-  std::size_t i = 0;
-  while (i < rest.size()) {
-    while (i < rest.size() && separator(rest[i])) ++i;
-    if (i >= rest.size()) break;
-    const std::size_t start = i;
-    while (i < rest.size() && !separator(rest[i])) ++i;
-    const std::string_view piece = rest.substr(start, i - start);
-    const std::size_t eq = piece.find('=');
-    if (eq == std::string_view::npos && out->size() > first) {
-      out->back().value += "," + std::string(piece);
-      continue;
-    }
-    FileSetting s;
-    s.key = std::string(piece.substr(0, eq));
-    s.value = eq == std::string_view::npos ? "" : std::string(piece.substr(eq + 1));
-    s.file = in.name();
-    s.line = in.line_number();
-    out->push_back(std::move(s));
-  }
-  return true;
-}
-
-constexpr const char* kAxisNames[3] = {"x", "y", "z"};
-constexpr const char* kRequired = "t, ax, ay, az, gx, gy, gz";
-
-}  // namespace
-
 // --- SampleReader --------------------------------------------------------------------------
 
-void SampleReader::report(const LineReader& in, long column, std::string message,
-                          Diagnostics& diag) {
-  diag.add({in.name(), in.line_number(), column, std::move(message)});
-}
+SampleReader::SampleReader() = default;
+SampleReader::~SampleReader() = default;
 
-// The next line that is neither blank nor a comment (settings in comments are collected).
-bool SampleReader::content_line(LineReader& in, std::string_view& line, Diagnostics& diag) {
-  while (in.next(line, diag)) {
-    std::size_t i = 0;
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-    if (i == line.size()) continue;
-    if (line[i] == '#') {
-      if (!data_started_) {
-        parse_settings(line.substr(i), in, &settings_);
-      } else if (parse_settings(line.substr(i), in, nullptr)) {
-        report(in, static_cast<long>(i + 1),
-               "settings after the data started are ignored: put `# imucal:` lines before the "
-               "header (or the first sample)",
-               diag);
-      }
-      continue;
-    }
-    return true;
-  }
-  return false;
+// The reader of `format` (auto: two files are imu_tk, one is CSV) over `files` line readers,
+// opened by `open_file(reader, i)`; then its start(). A count of files the format does not take
+// is said by start(), after the files were opened (an unopenable file is said first).
+template <class OpenFile>
+bool SampleReader::open_text(int files, Format format, Diagnostics& diag, OpenFile&& open_file) {
+  format_ = format == Format::kAuto ? (files == 2 ? Format::kImuTk : Format::kCsv) : format;
+  std::unique_ptr<TextReader> text;
+  if (format_ == Format::kCsv)
+    text = std::make_unique<CsvReader>(columns_given_, columns_default_);
+  else
+    text = std::make_unique<ImuTkReader>();
+  text->set_files(files);
+  for (int i = 0; i < files; ++i)
+    if (!open_file(text->file(i), i)) return false;
+  reader_ = std::move(text);
+  return reader_->start(diag);
 }
 
 bool SampleReader::open(const std::vector<std::string>& files, Format format, Diagnostics& diag) {
-  files_ = static_cast<int>(files.size());
-  if (files_ < 1 || files_ > 2) {
+  const int n = static_cast<int>(files.size());
+  if (n < 1 || n > 2) {
     diag.add({"imucal", 0, 0,
               "expected one CSV file (or - for stdin), or the imu_tk accelerometer and gyroscope "
               "files"});
     return false;
   }
-  if (files_ == 2 && files[0] == "-" && files[1] == "-") {
+  if (n == 2 && files[0] == "-" && files[1] == "-") {
     diag.add({"<stdin>", 0, 0, "stdin can be only one of the two imu_tk files"});
     return false;
   }
-  for (int i = 0; i < files_; ++i)
-    if (!in_[i].open(files[static_cast<std::size_t>(i)], diag)) return false;
-  return start(format, diag);
+  return open_text(n, format, diag, [&](LineReader& in, int i) {
+    return in.open(files[static_cast<std::size_t>(i)], diag);
+  });
 }
 
 bool SampleReader::open_memory(const std::vector<std::string_view>& texts, Format format,
                                Diagnostics& diag, std::size_t max_line) {
-  files_ = static_cast<int>(std::min<std::size_t>(texts.size(), 2));
-  if (files_ < 1) return false;
-  for (int i = 0; i < files_; ++i)
-    in_[i].open_memory(texts[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line);
-  return start(format, diag);
+  const int n = static_cast<int>(std::min<std::size_t>(texts.size(), 2));
+  if (n < 1) return false;
+  return open_text(n, format, diag, [&](LineReader& in, int i) {
+    in.open_memory(texts[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line);
+    return true;
+  });
 }
 
 bool SampleReader::open_streams(const std::vector<std::FILE*>& files, Format format,
                                 Diagnostics& diag, std::size_t max_line, std::size_t block) {
-  files_ = static_cast<int>(std::min<std::size_t>(files.size(), 2));
-  if (files_ < 1) return false;
-  for (int i = 0; i < files_; ++i)
-    in_[i].open_stream(files[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line,
-                       block);
-  return start(format, diag);
-}
-
-bool SampleReader::open_records(std::vector<Record> records, const std::string& columns,
-                                Diagnostics& diag) {
-  files_ = 1;
-  in_[0].open_memory("", "<arrays>", LineReader::kMaxLine);
-  format_ = Format::kCsv;
-  from_records_ = true;
-  records_ = std::move(records);
-  std::vector<Field> parts;
-  split_fields(columns, parts);
-  std::vector<std::string> names;
-  for (const Field& f : parts) names.push_back(lower(f.text));
-  columns_source_ = "arrays";
-  data_started_ = true;
-  return name_columns(names, true, diag);
-}
-
-// The next good sample of open_records(); the line of a report is the sample's index + 1.
-bool SampleReader::next_record(Record& r, Diagnostics& diag) {
-  while (next_record_ < records_.size()) {
-    const long line = static_cast<long>(++next_record_);
-    r = records_[static_cast<std::size_t>(line - 1)];
-    auto say = [&](const std::string& message) {
-      diag.add({"<arrays>", line, 0, message + ": sample skipped"});
-      ++skipped_;
-    };
-    bool finite = col_t_ < 0 || std::isfinite(r.t);
-    for (int a = 0; a < 3; ++a) {
-      if (col_acc_[0] >= 0) finite = finite && std::isfinite(r.acc[a]);
-      if (col_gyro_[0] >= 0) finite = finite && std::isfinite(r.gyro[a]);
-      if (col_acc_[0] < 0) r.acc[a] = kNaN;
-      if (col_gyro_[0] < 0) r.gyro[a] = kNaN;
-      if (col_mag_[0] < 0) r.mag[a] = kNaN;
-    }
-    if (col_temp_ < 0) r.temp = kNaN;
-    if (!finite) {
-      say("a time or a reading is not finite");
-      continue;
-    }
-    // A magnetometer reading is all three axes or none; a temperature may be missing.
-    if (!(std::isfinite(r.mag[0]) && std::isfinite(r.mag[1]) && std::isfinite(r.mag[2])))
-      r.mag[0] = r.mag[1] = r.mag[2] = kNaN;
-    if (!std::isfinite(r.temp)) r.temp = kNaN;
-    if (col_t_ >= 0) {
-      r.t *= time_scale_;
-      if (have_last_ && !(r.t > last_t_)) {
-        say(time_not_after(r.t, last_t_));
-        continue;
-      }
-    } else {
-      r.t = untimed_time();
-    }
-    taken(r.t);
+  const int n = static_cast<int>(std::min<std::size_t>(files.size(), 2));
+  if (n < 1) return false;
+  return open_text(n, format, diag, [&](LineReader& in, int i) {
+    in.open_stream(files[static_cast<std::size_t>(i)], i == 0 ? "<text>" : "<text2>", max_line,
+                   block);
     return true;
-  }
-  return false;
+  });
+}
+
+bool SampleReader::open_arrays(const SampleArrays& arrays, Diagnostics& diag) {
+  format_ = Format::kCsv;
+  from_arrays_ = true;
+  reader_ = std::make_unique<ArrayReader>(arrays);
+  return reader_->start(diag);
 }
 
 void SampleReader::set_time_unit(TimeUnit time) {
-  time_scale_ = time == TimeUnit::kSeconds ? 1.0 : time == TimeUnit::kMilliseconds ? 1e-3 : 1e-6;
+  if (reader_) reader_->set_time_unit(time);
 }
 
-bool SampleReader::start(Format format, Diagnostics& diag) {
-  format_ = format;
-  if (format_ == Format::kAuto) format_ = files_ == 2 ? Format::kImuTk : Format::kCsv;
-  if (format_ == Format::kImuTk && files_ != 2) {
-    diag.add({in_[0].name(), 0, 0,
-              "the imu_tk format needs two files: the accelerometer's and the gyroscope's"});
-    return false;
-  }
-  if (format_ == Format::kCsv && files_ != 1) {
-    diag.add({in_[0].name(), 0, 0, "the CSV format reads one file (or - for stdin)"});
-    return false;
-  }
-  if (format_ == Format::kCsv) return read_header(diag);
-  // imu_tk: the settings comments at the top of either file, before the first sample.
-  for (int i = 0; i < 2; ++i) {
-    std::string_view line;
-    if (!content_line(in_[i], line, diag)) {
-      diag.add({in_[i].name(), 0, 0, "no samples: expected lines of `t x y z`"});
-      return false;
-    }
-    pending_[i] = std::string(line);
-    has_pending_[i] = true;
-  }
-  data_started_ = true;
-  return true;
+void SampleReader::set_rate(double hz) {
+  if (reader_) reader_->set_rate(hz);
 }
 
-// Names the columns (lower-case names in file order). strict: an unknown name is an error (the
-// user's --columns), else ignored (a header's extra columns). False (reported) if a name is
-// repeated, a sensor has some but not all of its axes, or neither the accelerometer nor the
-// magnetometer is there.
-bool SampleReader::name_columns(const std::vector<std::string>& names, bool strict,
-                                Diagnostics& diag) {
-  LineReader& in = in_[0];
-  columns_ = names.size();
-  for (std::size_t c = 0; c < names.size(); ++c) {
-    const std::string& name = names[c];
-    const int ci = static_cast<int>(c);
-    int* slot = nullptr;
-    if (name == "t" || name == "time") slot = &col_t_;
-    if (name == "temp" || name == "temperature") slot = &col_temp_;
-    for (int a = 0; a < 3; ++a) {
-      if (name == std::string("a") + kAxisNames[a]) slot = &col_acc_[a];
-      if (name == std::string("g") + kAxisNames[a] || name == std::string("w") + kAxisNames[a])
-        slot = &col_gyro_[a];
-      if (name == std::string("m") + kAxisNames[a]) slot = &col_mag_[a];
-    }
-    if (slot == nullptr) {
-      if (strict && name != "-" && name != "_") {
-        report(in, 0,
-               "--columns: unknown column name " + quoted(name) +
-                   " (known: t, ax, ay, az, gx, gy, gz, temp, mx, my, mz; - or _ skips a column)",
-               diag);
-        return false;
-      }
-      continue;  // unknown columns are ignored
-    }
-    if (*slot >= 0) {
-      report(in, 0, "column " + quoted(name) + " named twice", diag);
-      return false;
-    }
-    *slot = ci;
-  }
-  // A sensor is all three axes or none.
-  for (const auto& [cols, prefix, what] : {std::make_tuple(col_acc_, "a", "accelerometer"),
-                                           std::make_tuple(col_gyro_, "g", "gyroscope"),
-                                           std::make_tuple(col_mag_, "m", "magnetometer")}) {
-    const int n = (cols[0] >= 0) + (cols[1] >= 0) + (cols[2] >= 0);
-    if (n == 0 || n == 3) continue;
-    std::string missing;
-    for (int a = 0; a < 3; ++a)
-      if (cols[a] < 0)
-        missing += (missing.empty() ? "" : ", ") + std::string(prefix) + kAxisNames[a];
-    report(in, 0,
-           std::string("the ") + what + " needs all three axes: no column " + missing +
-               " (expected " + kRequired + ", or a sensor alone)",
-           diag);
-    return false;
-  }
-  if (col_acc_[0] < 0 && col_mag_[0] < 0) {
-    report(in, 0,
-           std::string("no column ax, ay, az (accelerometer) nor mx, my, mz (magnetometer): "
-                       "expected ") +
-               kRequired + ", or t, mx, my, mz for a magnetometer alone",
-           diag);
-    return false;
-  }
-  if (col_gyro_[0] >= 0 && col_acc_[0] < 0) {
-    report(in, 0,
-           "gx, gy, gz without ax, ay, az: the gyroscope is calibrated against gravity, it needs "
-           "the accelerometer",
-           diag);
-    return false;
-  }
-  column_list_.clear();
-  for (std::size_t c = 0; c < names.size(); ++c)
-    column_list_ += (c ? ", " : "") + (names[c].empty() ? std::string("-") : names[c]);
-  return true;
+bool SampleReader::next(Record& r, Diagnostics& diag) { return reader_ && reader_->next(r, diag); }
+
+const InputLayout& SampleReader::layout() const {
+  static const InputLayout kNothing;
+  return reader_ ? reader_->layout() : kNothing;
 }
 
-bool SampleReader::read_header(Diagnostics& diag) {
-  LineReader& in = in_[0];
-  std::string_view line;
-  if (!content_line(in, line, diag)) {
-    diag.add({in.name(), 0, 0,
-              std::string("empty: expected a header line naming the columns (") + kRequired +
-                  "; optional temp, mx, my, mz)"});
-    return false;
-  }
-  split_fields(line, fields_);
-  double number = 0;
-  const bool numeric = !fields_.empty() && parse_number(fields_[0].text, number);
-  // The names: --columns, else a `# imucal: columns=` comment, else the header line, else six
-  // numeric columns are taken as ax ay az gx gy gz.
-  std::string given = columns_given_;
-  columns_source_ = "--columns";
-  if (given.empty()) {
-    for (const FileSetting& s : settings_)
-      if (s.key == "columns") given = s.value;
-    columns_source_ = "columns= comment";
-  }
-  if (given.empty() && numeric && !columns_default_.empty()) {
-    given = columns_default_;
-    columns_source_ = "assumed";
-  }
-  std::vector<std::string> names;
-  if (!given.empty()) {
-    std::vector<Field> parts;
-    split_fields(given, parts);
-    for (const Field& f : parts) names.push_back(lower(f.text));
-  } else if (!numeric) {
-    columns_source_ = "header";
-    for (const Field& f : fields_) names.push_back(lower(f.text));
-  } else if (fields_.size() == 6) {
-    columns_source_ = "assumed";
-    names = {"ax", "ay", "az", "gx", "gy", "gz"};
-  } else {
-    std::string msg = "no header line naming the columns (found numbers, " +
-                      std::to_string(fields_.size()) +
-                      " per line): give --columns NAMES in the file's order (t, ax, ay, az, gx, "
-                      "gy, gz, temp, mx, my, mz; - skips a column), e.g. --columns ";
-    if (fields_.size() == 7) {
-      msg += "t,ax,ay,az,gx,gy,gz (or ax,ay,az,gx,gy,gz,temp)";
-    } else if (fields_.size() == 4) {
-      msg +=
-          "t,ax,ay,az (an accelerometer alone) or t,mx,my,mz (a magnetometer alone); a pair of "
-          "imu_tk files (t x y z): give the accelerometer file and the gyroscope file";
-    } else if (fields_.size() == 3) {
-      msg += "ax,ay,az (one pose per line; or --poses) or mx,my,mz (a magnetometer alone)";
-    } else {
-      msg += "t,ax,ay,az,gx,gy,gz";
-    }
-    report(in, 1, msg, diag);
-    return false;
-  }
-  if (!name_columns(names, columns_source_ != "header", diag)) return false;
-  // With the names given, a first line that is not numbers is a header: skipped. One of
-  // numbers is the first sample.
-  if (columns_source_ != "header" && numeric) {
-    pending_[0] = std::string(line);
-    has_pending_[0] = true;
-  }
-  data_started_ = true;
-  return true;
-}
+bool SampleReader::has_temperature() const { return layout().temp; }
+bool SampleReader::has_magnetometer() const { return layout().mag; }
+bool SampleReader::has_accelerometer() const { return layout().accel; }
+bool SampleReader::has_gyroscope() const { return layout().gyro; }
+bool SampleReader::has_time() const { return layout().time; }
+const std::string& SampleReader::columns_source() const { return layout().source; }
+const std::string& SampleReader::column_names() const { return layout().names; }
+long SampleReader::lines_skipped() const { return reader_ ? reader_->skipped() : 0; }
+bool SampleReader::failed() const { return reader_ && reader_->failed(); }
+double SampleReader::fraction_read() const { return reader_ ? reader_->fraction_read() : 0; }
 
-// A field that must be a finite number; reported (with its column) and false otherwise.
-bool SampleReader::number_field(const LineReader& in, const Field& f, const char* name, double& out,
-                                Diagnostics& diag) {
-  if (!parse_number(f.text, out)) {
-    report(in, static_cast<long>(f.offset + 1),
-           std::string("expected a number for ") + name + ", found " + quoted(f.text) +
-               ": line skipped",
-           diag);
-    return false;
-  }
-  if (!std::isfinite(out)) {
-    report(in, static_cast<long>(f.offset + 1),
-           std::string(name) + " is not finite (" + std::string(f.text) + "): line skipped", diag);
-    return false;
-  }
-  return true;
-}
-
-// Time must increase: t after `previous` (if there is one), else reported.
-bool SampleReader::after_previous(double t, bool have, double previous, const LineReader& in,
-                                  long column, Diagnostics& diag) {
-  if (!have || t > previous) return true;
-  report(in, column, time_not_after(t, previous) + ": line skipped", diag);
-  return false;
-}
-
-std::string SampleReader::time_not_after(double t, double previous) {
-  char msg[120];
-  std::snprintf(msg, sizeof msg, "time %.9g s is not after the previous sample's %.9g s", t,
-                previous);
-  return msg;
-}
-
-double SampleReader::untimed_time() const {
-  return rate_hz_ > 0 ? static_cast<double>(index_) / rate_hz_ : static_cast<double>(index_);
-}
-
-void SampleReader::taken(double t) {
-  have_last_ = true;
-  last_t_ = t;
-  ++index_;
-}
-
-bool SampleReader::next_csv(Record& r, Diagnostics& diag) {
-  LineReader& in = in_[0];
-  std::string_view line;
-  for (;;) {
-    if (has_pending_[0]) {  // the first line of a file without a header
-      has_pending_[0] = false;
-      line = pending_[0];
-    } else if (!content_line(in, line, diag)) {
-      break;
-    }
-    // Every field a finite number (the common line): read in one pass; else field by field.
-    constexpr std::size_t kFast = 16;
-    double x[kFast];
-    const bool plain = columns_ <= kFast && plain_numbers(line, x, columns_);
-    if (!plain) {
-      split_fields(line, fields_);
-      if (fields_.size() != columns_) {
-        report(in, 0,
-               "expected " + std::to_string(columns_) + " fields (" + column_list_ + "), found " +
-                   std::to_string(fields_.size()) + ": line skipped",
-               diag);
-        ++skipped_;
-        continue;
-      }
-    }
-    bool ok = true;
-    auto get = [&](int col, const char* name, double& out) {
-      if (ok && col >= 0) {
-        if (plain)
-          out = x[col];
-        else
-          ok = number_field(in, fields_[static_cast<std::size_t>(col)], name, out, diag);
-      }
-    };
-    static constexpr const char* kAcc[3] = {"ax", "ay", "az"};
-    static constexpr const char* kGyro[3] = {"gx", "gy", "gz"};
-    static constexpr const char* kMag[3] = {"mx", "my", "mz"};
-    double t = 0;
-    get(col_t_, "t", t);
-    for (int a = 0; a < 3; ++a) {
-      r.acc[a] = r.gyro[a] = kNaN;  // NaN: no such sensor in the input
-      get(col_acc_[a], kAcc[a], r.acc[a]);
-      get(col_gyro_[a], kGyro[a], r.gyro[a]);
-    }
-    // The optional columns may be empty or NaN (a magnetometer slower than the IMU, a
-    // temperature read now and then): no reading there, the line is still good.
-    auto optional = [&](int col, const char* name, double& out) {
-      out = kNaN;
-      if (!ok || col < 0) return;
-      if (plain) {
-        out = x[col];
-        return;
-      }
-      const Field& f = fields_[static_cast<std::size_t>(col)];
-      if (f.text.empty()) return;
-      double v = 0;
-      if (parse_number(f.text, v) && std::isnan(v)) return;
-      ok = number_field(in, f, name, out, diag);
-    };
-    optional(col_temp_, "temp", r.temp);
-    for (int a = 0; a < 3; ++a) optional(col_mag_[a], kMag[a], r.mag[a]);
-    // A magnetometer reading is all three axes or none.
-    if (!(std::isfinite(r.mag[0]) && std::isfinite(r.mag[1]) && std::isfinite(r.mag[2])))
-      r.mag[0] = r.mag[1] = r.mag[2] = kNaN;
-    if (col_t_ >= 0) {
-      r.t = t * time_scale_;
-      if (ok && have_last_ && !(r.t > last_t_)) {  // not after the previous one: reported
-        if (plain) split_fields(line, fields_);    // where the time's column is
-        ok = after_previous(r.t, have_last_, last_t_, in,
-                            static_cast<long>(fields_[static_cast<std::size_t>(col_t_)].offset + 1),
-                            diag);
-      }
-    } else {
-      // No time column: the good samples are evenly spaced at the rate given.
-      r.t = untimed_time();
-    }
-    if (ok) {
-      taken(r.t);
-      return true;
-    }
-    ++skipped_;
-  }
-  return false;
-}
-
-// The next good `t x y z` line of imu_tk file `which`.
-bool SampleReader::next_txyz(int which, double& t, double v[3], long& line_no, Diagnostics& diag) {
-  LineReader& in = in_[which];
-  std::string_view line;
-  for (;;) {
-    if (has_pending_[which]) {
-      has_pending_[which] = false;
-      line = pending_[which];
-    } else if (!content_line(in, line, diag)) {
-      break;
-    }
-    double x[4];
-    bool ok = plain_numbers(line, x, 4);  // the common line; else field by field, saying why
-    if (!ok) {
-      split_fields(line, fields_);
-      if (fields_.size() != 4) {
-        report(in, 0,
-               "expected 4 fields (t x y z), found " + std::to_string(fields_.size()) +
-                   ": line skipped",
-               diag);
-        ++skipped_;
-        continue;
-      }
-      ok = true;
-      static constexpr const char* kNames[4] = {"t", "x", "y", "z"};
-      for (int k = 0; k < 4 && ok; ++k)
-        ok = number_field(in, fields_[static_cast<std::size_t>(k)], kNames[k], x[k], diag);
-    }
-    ok = ok && after_previous(x[0] * time_scale_, have_[which], t_[which], in, 1, diag);
-    if (!ok) {
-      ++skipped_;
-      continue;
-    }
-    t = x[0] * time_scale_;
-    for (int a = 0; a < 3; ++a) v[a] = x[a + 1];
-    line_no = in.line_number();
-    return true;
-  }
-  return false;
-}
-
-// Pairs the two files by timestamp (within half a microsecond); an unmatched line is reported.
-bool SampleReader::next_imutk(Record& r, Diagnostics& diag) {
-  while (have_[0] && have_[1]) {
-    const double tol = 5e-7 + 1e-12 * std::abs(t_[0]);
-    if (std::abs(t_[0] - t_[1]) <= tol) {
-      r.t = t_[0];
-      for (int a = 0; a < 3; ++a) {
-        r.acc[a] = v_[0][a];
-        r.gyro[a] = v_[1][a];
-        r.mag[a] = kNaN;
-      }
-      r.temp = kNaN;
-      for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
-      ++matched_;
-      return true;
-    }
-    const int early = t_[0] < t_[1] ? 0 : 1;
-    if (matched_ == 0 && unmatched_++ == 0) {
-      first_unmatched_[0] = t_[0];
-      first_unmatched_[1] = t_[1];
-    }
-    char msg[200];
-    std::snprintf(msg, sizeof msg, "no %s sample at time %.9g s (next there: %.9g s): line skipped",
-                  early == 0 ? "gyroscope" : "accelerometer", t_[early], t_[1 - early]);
-    diag.add({in_[early].name(), vline_[early], 1, msg});
-    ++skipped_;
-    have_[early] = next_txyz(early, t_[early], v_[early], vline_[early], diag);
-  }
-  for (int i = 0; i < 2; ++i) {
-    if (!have_[i]) continue;
-    // The other file ended: count what is left unmatched here.
-    long left = 0;
-    while (have_[i]) {
-      ++left;
-      have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
-    }
-    diag.add({in_[i].name(), 0, 0,
-              std::to_string(left) + " line(s) after the other file's last sample: skipped"});
-    skipped_ += left;
-  }
-  if (matched_ == 0 && unmatched_ > 0) {
-    char msg[240];
-    std::snprintf(msg, sizeof msg,
-                  "no timestamp of one file matches the other's (they start at %.9g s and "
-                  "%.9g s): imu_tk's two files must be sampled together, one line per sample",
-                  first_unmatched_[0], first_unmatched_[1]);
-    diag.add({in_[0].name(), 0, 0, msg});
-    unmatched_ = 0;
-  }
-  return false;
-}
-
-bool SampleReader::next(Record& r, Diagnostics& diag) {
-  if (from_records_) return next_record(r, diag);
-  if (format_ == Format::kCsv) return next_csv(r, diag);
-  if (!primed_) {
-    primed_ = true;
-    for (int i = 0; i < 2; ++i) have_[i] = next_txyz(i, t_[i], v_[i], vline_[i], diag);
-  }
-  return next_imutk(r, diag);
-}
-
-bool SampleReader::failed() const {
-  for (int i = 0; i < files_; ++i)
-    if (in_[i].failed()) return true;
-  return false;
-}
-
-double SampleReader::fraction_read() const {
-  std::uint64_t done = 0, total = 0;
-  for (int i = 0; i < files_; ++i) {
-    if (in_[i].size() == 0) return 0;
-    done += in_[i].bytes_read();
-    total += in_[i].size();
-  }
-  return total == 0 ? 0 : static_cast<double>(done) / static_cast<double>(total);
+const std::vector<FileSetting>& SampleReader::file_settings() const {
+  static const std::vector<FileSetting> kNone;
+  return reader_ ? reader_->settings() : kNone;
 }
 
 }  // namespace imucal::cli

@@ -1,4 +1,6 @@
-// tools/imucal/input.hpp: the `imucal` tool's readers (host only, not library code).
+// tools/imucal/input.hpp: the `imucal` tool's input (host only, not library code): lines,
+// fields and numbers, and the samples of an input whatever its format (SampleReader; the
+// formats' readers are in format_reader.hpp).
 //
 // Two text formats, read line by line in bounded memory (a serial logger can pipe in):
 //  - imucal CSV: a header line naming the columns (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz;
@@ -63,8 +65,12 @@ class Diagnostics {
 };
 
 // Lines of a file or of stdin ("-"), read in blocks. A line longer than `max_line` characters is
-// reported and skipped; CR before LF is dropped; a last line without LF still counts; a UTF-8
-// byte-order mark before the first line is dropped. A read error is reported and ends the input.
+// reported (its length and fields) and skipped; one longer than max_skip() ends the input there
+// (reported: an endless line, binary data), so that any input ends in bounded time. CR before LF
+// is dropped; a last line without LF still counts; a UTF-8 byte-order mark before the first line
+// is dropped. An input whose first line is not text (UTF-16 or UTF-32, NUL bytes, binary data,
+// lines ended by CR alone) ends there, reported. A directory is refused. A read error is
+// reported and ends the input.
 class LineReader {
  public:
   static constexpr std::size_t kMaxLine = 1 << 16;
@@ -87,6 +93,12 @@ class LineReader {
   std::uint64_t bytes_read() const { return consumed_; }
   std::uint64_t size() const { return size_; }  // 0 if unknown (a pipe)
   bool failed() const { return failed_; }       // a read error ended the input early
+  // The input ended before its end (reported): not text, or a line beyond max_skip().
+  bool ended() const { return ended_; }
+  long long_lines() const { return long_lines_; }  // lines skipped as longer than max_line
+  std::size_t max_line() const { return max_line_; }
+  std::uint64_t max_skip() const { return kSkipLines * static_cast<std::uint64_t>(max_line_); }
+  static constexpr std::uint64_t kSkipLines = 256;  // max_skip(): 16 MB at the default max_line
 
  private:
   void fill();
@@ -95,6 +107,8 @@ class LineReader {
   bool owns_ = false;
   bool eof_ = false;
   bool failed_ = false;
+  bool ended_ = false;
+  long long_lines_ = 0;
   std::string error_;
   std::string name_;
   std::size_t max_line_ = kMaxLine;
@@ -125,6 +139,22 @@ const char* decimal_fast(const char* p, const char* end, double& out);
 // values as split_fields and parse_number give; false for any other line.
 bool plain_numbers(std::string_view line, double* out, std::size_t n);
 
+// Samples in memory, one array per quantity, read where they are (the Python package's numpy
+// arrays: any strides, not copied): each column's first value and the bytes from one row to the
+// next and from one axis to the next; data null: not in the input.
+struct ArrayColumn {
+  const char* data = nullptr;
+  std::ptrdiff_t row_bytes = 0, axis_bytes = 0;
+  double at(std::size_t row, int axis = 0) const;
+  explicit operator bool() const { return data != nullptr; }
+};
+struct SampleArrays {
+  std::size_t rows = 0;
+  ArrayColumn t, acc, gyro, mag, temp;  // t, temp: one axis; the others three
+  // The columns present, comma-separated, as --columns names them ("t,ax,ay,az,gx,gy,gz").
+  std::string columns() const;
+};
+
 // The `# imucal: key=value ...` settings found in comments, in order.
 struct FileSetting {
   std::string key, value;
@@ -132,8 +162,18 @@ struct FileSetting {
   long line;
 };
 
+class FormatReader;
+struct InputLayout;
+
+// The samples of an input, whatever its format: a facade over the format's reader
+// (format_reader.hpp).
 class SampleReader {
  public:
+  SampleReader();
+  ~SampleReader();
+  SampleReader(const SampleReader&) = delete;
+  SampleReader& operator=(const SampleReader&) = delete;
+
   // files: one CSV file (or "-" for stdin), or the imu_tk accelerometer and gyroscope files.
   // False (reported) if nothing can be read: missing file, empty file, no usable header.
   bool open(const std::vector<std::string>& files, Format format, Diagnostics& diag);
@@ -143,15 +183,16 @@ class SampleReader {
   // Open streams, not closed here (the fuzz target: small buffers reach every boundary).
   bool open_streams(const std::vector<std::FILE*>& files, Format format, Diagnostics& diag,
                     std::size_t max_line, std::size_t block);
-  // Samples already in memory (the Python package's arrays), as a CSV file of these columns
-  // (comma-separated names, as --columns) would give them: a required reading that is not
-  // finite, or a time not after the previous one, is reported and the sample skipped.
-  bool open_records(std::vector<Record> records, const std::string& columns, Diagnostics& diag);
+  // Samples in memory (the Python package's arrays, which must outlive the reader), as a CSV
+  // file of their columns would give them: a required reading that is not finite, or a time not
+  // after the previous one, is reported and the sample skipped. Opened again, they are read
+  // again from the first.
+  bool open_arrays(const SampleArrays& arrays, Diagnostics& diag);
   // Settable until the first next(): a `# imucal: time-unit=ms` comment may say it.
   void set_time_unit(TimeUnit time);
   // Without a t column, sample i (0-based, good samples) is at i / hz seconds (hz 0: at i s).
   // Settable until the first next().
-  void set_rate(double hz) { rate_hz_ = hz; }
+  void set_rate(double hz);
   // The column names, comma-separated (t, ax, ay, az, gx, gy, gz, temp, mx, my, mz; - or _ skip
   // a column), given before open(): they win over a header line (then skipped) and over a
   // `# imucal: columns=...` comment.
@@ -163,71 +204,32 @@ class SampleReader {
   bool next(Record& r, Diagnostics& diag);
 
   Format format() const { return format_; }
-  bool from_records() const { return from_records_; }  // open_records()
-  bool has_temperature() const { return col_temp_ >= 0; }
-  bool has_magnetometer() const { return col_mag_[0] >= 0; }
+  bool from_arrays() const { return from_arrays_; }  // open_arrays()
+  bool has_temperature() const;
+  bool has_magnetometer() const;
   // Both for an imu_tk pair; for CSV, as the columns say.
-  bool has_accelerometer() const { return format_ == Format::kImuTk || col_acc_[0] >= 0; }
-  bool has_gyroscope() const { return format_ == Format::kImuTk || col_gyro_[0] >= 0; }
-  bool has_time() const { return col_t_ >= 0; }
+  bool has_accelerometer() const;
+  bool has_gyroscope() const;
+  bool has_time() const;
   // How the columns were named: "header", "--columns", "columns= comment", or "assumed" (six
   // numeric columns without a header); and the names in file order ("-" for a skipped one).
-  const std::string& columns_source() const { return columns_source_; }
-  const std::string& column_names() const { return column_list_; }
-  long lines_skipped() const { return skipped_; }
+  const std::string& columns_source() const;
+  const std::string& column_names() const;
+  long lines_skipped() const;
   bool failed() const;  // a read error ended an input early (reported)
-  const std::vector<FileSetting>& file_settings() const { return settings_; }
+  const std::vector<FileSetting>& file_settings() const;
   // Progress over all files: bytes read / bytes in total (0 if unknown).
   double fraction_read() const;
 
  private:
-  bool start(Format format, Diagnostics& diag);
-  bool read_header(Diagnostics& diag);
-  bool name_columns(const std::vector<std::string>& names, bool strict, Diagnostics& diag);
-  bool next_csv(Record& r, Diagnostics& diag);
-  bool next_record(Record& r, Diagnostics& diag);
-  bool next_txyz(int which, double& t, double v[3], long& line, Diagnostics& diag);
-  bool next_imutk(Record& r, Diagnostics& diag);
-  bool content_line(LineReader& in, std::string_view& line, Diagnostics& diag);
-  bool number_field(const LineReader& in, const Field& f, const char* name, double& out,
-                    Diagnostics& diag);
-  bool after_previous(double t, bool have, double previous, const LineReader& in, long column,
-                      Diagnostics& diag);
-  void report(const LineReader& in, long column, std::string message, Diagnostics& diag);
-  static std::string time_not_after(double t, double previous);
-  double untimed_time() const;  // a sample's time without a t column: index / rate
-  void taken(double t);         // a good sample: the next must come after t
+  template <class OpenFile>
+  bool open_text(int files, Format format, Diagnostics& diag, OpenFile&& open_file);
+  const InputLayout& layout() const;
 
-  LineReader in_[2];
-  int files_ = 0;
+  std::unique_ptr<FormatReader> reader_;
   Format format_ = Format::kAuto;
-  double time_scale_ = 1.0;
-  // CSV column indices (-1: absent).
-  int col_t_ = -1, col_acc_[3] = {-1, -1, -1}, col_gyro_[3] = {-1, -1, -1};
-  int col_temp_ = -1, col_mag_[3] = {-1, -1, -1};
-  std::size_t columns_ = 0;
-  std::string column_list_;
-  std::string columns_given_, columns_default_, columns_source_;
-  double rate_hz_ = 0;
-  long index_ = 0;  // good samples so far (their time without a t column)
-  std::vector<Field> fields_;
-  std::vector<Record> records_;  // open_records(): served in order
-  std::size_t next_record_ = 0;
-  bool from_records_ = false;
-  std::string pending_[2];  // imu_tk: the first sample line, read by open()
-  bool has_pending_[2] = {false, false};
-  // imu_tk: one look-ahead sample per file.
-  bool primed_ = false;
-  bool have_[2] = {false, false};
-  double t_[2] = {0, 0}, v_[2][3] = {};
-  long vline_[2] = {0, 0};
-  long matched_ = 0, unmatched_ = 0;
-  double first_unmatched_[2] = {0, 0};
-  bool data_started_ = false;
-  bool have_last_ = false;
-  double last_t_ = 0;
-  long skipped_ = 0;
-  std::vector<FileSetting> settings_;
+  bool from_arrays_ = false;
+  std::string columns_given_, columns_default_;
 };
 
 }  // namespace imucal::cli

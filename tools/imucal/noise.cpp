@@ -50,6 +50,9 @@ class IntervalHistogram {
 };
 
 constexpr int kMaxTaus = 64;
+// The largest reading the variances take (in the unit reported): far beyond any sensor's range,
+// far below where the sums of squares over a recording overflow.
+constexpr double kLargestReading = 1e100;
 constexpr int kPerDecade = 8;
 
 struct SensorNoise {
@@ -236,12 +239,6 @@ std::string kalibr_yaml(const SensorNoise* gyro, const SensorNoise* acc, double 
 
 constexpr const char* kAxisColour[3] = {"#d62728", "#2ca02c", "#1f77b4"};
 
-std::string fmt(const char* f, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, f, a, b, c, d);
-  return buf;
-}
-
 // Log-log panel at (x0, y0) of size w x h: the Allan deviation of each axis (points, 68 %
 // bars), the fitted terms' asymptotes (dashed) and the fitted model (thin line).
 std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, double h) {
@@ -261,24 +258,27 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
            std::log10(v) <= ly1;
   };
   std::string o;
-  o += fmt("<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", x0,
-           y0, w, h);
+  o += format_text(
+      "<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", x0, y0, w,
+      h);
   for (double e = lx0; e <= lx1; e += 1) {
     const double x = X(std::pow(10.0, e));
-    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x, y0, x, y0 + h);
-    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>1e%g</text>\n", x,
-             y0 + h + 14, e);
+    o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x, y0, x,
+                     y0 + h);
+    o += format_text("<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>1e%g</text>\n", x,
+                     y0 + h + 14, e);
   }
   for (double e = ly0; e <= ly1; e += 1) {
     const double y = Y(std::pow(10.0, e));
-    o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x0, y, x0 + w, y);
-    o += fmt("<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>1e%g</text>\n", x0 - 4,
-             y + 4, e);
+    o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", x0, y,
+                     x0 + w, y);
+    o += format_text("<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>1e%g</text>\n",
+                     x0 - 4, y + 4, e);
   }
-  o += "<text x='" + fmt("%.1f", x0 + w / 2) + "' y='" + fmt("%.1f", y0 + h + 30) +
+  o += "<text x='" + format_text("%.1f", x0 + w / 2) + "' y='" + format_text("%.1f", y0 + h + 30) +
        "' font-size='12' text-anchor='middle'>tau [s]</text>\n";
-  o += "<text x='" + fmt("%.1f", x0) + "' y='" + fmt("%.1f", y0 - 8) + "' font-size='14'>" +
-       s.name + ": Allan deviation [" + s.unit +
+  o += "<text x='" + format_text("%.1f", x0) + "' y='" + format_text("%.1f", y0 - 8) +
+       "' font-size='14'>" + s.name + ": Allan deviation [" + s.unit +
        "], 68 % intervals; dashed: the fitted terms' asymptotes (Q, N, B, K)</text>\n";
   const int steps = 60;
   for (int a = 0; a < 3; ++a) {
@@ -297,7 +297,7 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
                          : term == 2 ? 0.6642824702679265 * c
                                      : c * std::sqrt(tau / 3);
         if (!inside(tau, v)) continue;
-        path += (path.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+        path += (path.empty() ? "M" : "L") + format_text("%.1f,%.1f ", X(tau), Y(v));
       }
       if (!path.empty())
         o += "<path d='" + path + "' fill='none' stroke='" + kAxisColour[a] +
@@ -309,7 +309,7 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
       const double v = std::sqrt(3 * q * q / (tau * tau) + n * n / tau +
                                  0.4412712003053032 * b * b + k * k * tau / 3);
       if (!inside(tau, v)) continue;
-      model += (model.empty() ? "M" : "L") + fmt("%.1f,%.1f ", X(tau), Y(v));
+      model += (model.empty() ? "M" : "L") + format_text("%.1f,%.1f ", X(tau), Y(v));
     }
     if (!model.empty())
       o += "<path d='" + model + "' fill='none' stroke='" + kAxisColour[a] +
@@ -320,18 +320,19 @@ std::string svg_panel(const SensorNoise& s, double x0, double y0, double w, doub
       if (!inside(p.tau, v)) continue;
       const double lo = std::max(p.adev_lo(a), std::pow(10.0, ly0));
       const double hi = std::min(p.adev_hi(a), std::pow(10.0, ly1));
-      o += fmt("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' ", X(p.tau), Y(lo), X(p.tau), Y(hi)) +
+      o += format_text("<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' ", X(p.tau), Y(lo), X(p.tau),
+                       Y(hi)) +
            "stroke='" + kAxisColour[a] + "'/>\n";
-      o += fmt("<circle cx='%.1f' cy='%.1f' r='2.2' ", X(p.tau), Y(v)) + "fill='" + kAxisColour[a] +
-           "'/>\n";
+      o += format_text("<circle cx='%.1f' cy='%.1f' r='2.2' ", X(p.tau), Y(v)) + "fill='" +
+           kAxisColour[a] + "'/>\n";
     }
     const char* names = "xyz";
     auto shown = [](const NoiseTerm<double>& x) {
-      return x.significant ? fmt("%.3e", x.value) : std::string("ns");
+      return x.significant ? format_text("%.3e", x.value) : std::string("ns");
     };
-    o += fmt("<text x='%.1f' y='%.1f' font-size='12' ", x0 + w - 400, y0 + 18 + 16 * a) + "fill='" +
-         kAxisColour[a] + "'>" + names[a] + ": N " + shown(t.n) + ", K " + shown(t.k) + ", B " +
-         shown(t.b) + ", Q " + shown(t.q) + " (ns: not significant)</text>\n";
+    o += format_text("<text x='%.1f' y='%.1f' font-size='12' ", x0 + w - 400, y0 + 18 + 16 * a) +
+         "fill='" + kAxisColour[a] + "'>" + names[a] + ": N " + shown(t.n) + ", K " + shown(t.k) +
+         ", B " + shown(t.b) + ", Q " + shown(t.q) + " (ns: not significant)</text>\n";
   }
   return o;
 }
@@ -341,10 +342,10 @@ std::string noise_svg(const SensorNoise* sensors, const bool* present, const std
   int panels = 0;
   for (int s = 0; s < 2; ++s) panels += present[s] ? 1 : 0;
   const double height = 60 + panels * (panel_h + 80);
-  std::string o =
-      fmt("<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' "
-          "font-family='sans-serif'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
-          w + 120, height);
+  std::string o = format_text(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' "
+      "font-family='sans-serif'>\n<rect width='100%%' height='100%%' fill='white'/>\n",
+      w + 120, height);
   std::string title = "imucal noise: " + file;
   std::string escaped;
   for (char c : title) escaped += c == '<' ? "&lt;" : c == '&' ? "&amp;" : std::string(1, c);
@@ -402,8 +403,12 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
 
   // One pass, in bounded memory whatever the length: the Allan variances as the samples come
   // (AllanStream), the intervals in a histogram of 0.1 % bins (the mean is known only at the
-  // end).
+  // end), each axis's first reading and whether another differs.
   AllanStream streams[2] = {AllanStream(kPerDecade), AllanStream(kPerDecade)};  // gyro, acc
+  const char* const kSensor[2] = {"gyroscope", "accelerometer"};
+  const bool present[2] = {has_gyro, has_acc};
+  double first[2][3] = {};
+  bool varies[2][3] = {};
   IntervalHistogram intervals;
   double t_first = 0, t_last = 0;
   long n = 0;
@@ -413,16 +418,30 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     if (n == 0) t_first = r.t;
     t_last = r.t;
     ++n;
-    const Vector3<double> g(r.gyro[0] * gyro_scale, r.gyro[1] * gyro_scale, r.gyro[2] * gyro_scale);
-    const Vector3<double> a(r.acc[0] * acc_scale, r.acc[1] * acc_scale, r.acc[2] * acc_scale);
-    if ((has_gyro && !g.allFinite()) || (has_acc && !a.allFinite())) {
-      result.error =
-          format_text("%s: %s", has_gyro && !g.allFinite() ? "gyroscope" : "accelerometer",
-                      to_string(Status::kNonFiniteInput));
-      return 2;
+    const double* raw[2] = {r.gyro, r.acc};
+    const double scale[2] = {gyro_scale, acc_scale};
+    for (int s = 0; s < 2; ++s) {
+      if (!present[s]) continue;
+      const Vector3<double> v(raw[s][0] * scale[s], raw[s][1] * scale[s], raw[s][2] * scale[s]);
+      // Beyond kLargestReading a reading's square, summed over the recording, overflows: a
+      // glitch, not noise.
+      int axis = 0;
+      for (int a = 1; a < 3; ++a)
+        if (std::abs(v(a)) > std::abs(v(axis))) axis = a;
+      if (!(std::abs(v(axis)) <= kLargestReading)) {
+        result.error = format_text(
+            "%s reading %.9g (axis %c) at t = %.9g s, sample %ld: beyond %g %s, too large for "
+            "a variance (a glitch in the logger? remove that line)",
+            kSensor[s], raw[s][axis], "xyz"[axis], r.t, n, kLargestReading,
+            s == 0 ? (gyro_si ? "rad/s" : "counts") : (acc_si ? "m/s^2" : "counts"));
+        return 2;
+      }
+      for (int a = 0; a < 3; ++a) {
+        if (n == 1) first[s][a] = raw[s][a];
+        varies[s][a] = varies[s][a] || raw[s][a] != first[s][a];
+      }
+      streams[s].add(v);
     }
-    if (has_gyro) streams[0].add(g);
-    if (has_acc) streams[1].add(a);
   }
   if (reader.failed()) {
     result.error = format_text("the input could not be read to its end");
@@ -441,6 +460,15 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
     result.error = format_text("the time stamps do not advance");
     return 2;
   }
+  for (int s = 0; s < 2; ++s)
+    for (int a = 0; a < 3; ++a)
+      if (present[s] && !varies[s][a]) {
+        result.error = format_text(
+            "%s %c axis: every reading is %.9g (%ld samples): no noise to measure (a frozen "
+            "sensor, or a noise below the readings' resolution)",
+            kSensor[s], "xyz"[a], first[s][a], n);
+        return 2;
+      }
   // The Allan deviation assumes a constant interval: count the intervals far from it.
   const long gaps = intervals.over(1.5 * dt);
   const double worst = intervals.largest();
@@ -454,7 +482,6 @@ int noise_from(Options& o, SampleReader& reader, Diagnostics& diag, NoiseRun& re
   sensors[1].key = "accelerometer";
   sensors[1].si = acc_si;
   sensors[1].unit = acc_si ? "m/s^2" : "counts";
-  const bool present[2] = {has_gyro, has_acc};
   for (int s = 0; s < 2; ++s) {
     if (!present[s]) continue;
     SensorNoise& sn = sensors[s];
@@ -524,6 +551,9 @@ int noise_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "imucal noise: no input (a CSV file, - for stdin, or two imu_tk files)\n");
     return 2;
   }
+  if (!outputs_apart_from_inputs(
+          o.files, {{"--json", o.json_path}, {"--kalibr", o.kalibr_path}, {"--svg", o.svg_path}}))
+    return 2;
   Diagnostics diag;
   SampleReader reader;
   reader.set_columns(o.columns);
@@ -551,12 +581,11 @@ int noise_command(const std::vector<std::string>& args) {
   return written ? 0 : 2;
 }
 
-int noise_memory(const std::vector<std::string>& args, std::vector<Record> records,
-                 const std::string& columns, NoiseRun& out) {
+int noise_memory(const std::vector<std::string>& args, const SampleArrays& arrays, NoiseRun& out) {
   Options o;
   Diagnostics diag;
   SampleReader reader;
-  if (!open_arrays(args, std::move(records), columns, o, reader, diag, out.error)) return 2;
+  if (!open_arrays(args, arrays, o, reader, diag, out.error)) return 2;
   const int code = noise_from(o, reader, diag, out);
   for (const Diagnostic& d : diag.kept()) out.diagnostics.push_back(d.text());
   return code;

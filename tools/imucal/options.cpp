@@ -2,6 +2,7 @@
 // `# imucal: key=value` comments in the input (the command line wins).
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 #include <string_view>
 
@@ -65,11 +66,49 @@ const Key* find_key(std::string_view name) {
   return nullptr;
 }
 
-bool positive(const std::string& key, const std::string& value, double& out, std::string& error) {
-  if (!parse_number(value, out) || !(out > 0) || !std::isfinite(out)) {
-    error = "--" + key + ": expected a positive number, found '" + value + "'";
+// The physical range of each numeric option (the help states them): a value beyond it is a
+// usage error, never a calibration run with it.
+struct Bounds {
+  const char* key;
+  double lo, hi;
+  const char* unit;
+  const char* what;  // what a value beyond them is not
+};
+constexpr Bounds kBounds[] = {
+    {"accel-lsb-per-g", 1, 1e8, "counts per g", "an accelerometer's scale"},
+    {"accel-zero", -2147483648.0, 2147483647.0, "counts", "a 32-bit reading"},
+    {"gyro-lsb-per-dps", 0.01, 1e7, "counts per deg/s", "a gyroscope's scale"},
+    {"mag-lsb-per-ut", 0.01, 1e6, "counts per uT", "a magnetometer's scale"},
+    {"gravity", 9.7, 9.9, "m/s^2", "a gravity on Earth"},
+    {"initial-rest", 0.1, 3600, "s", "a still period to start from"},
+    {"min-rest", 0.05, 600, "s", "a pose's still period"},
+    {"rate", 0.1, 100000, "Hz", "an IMU's sample rate"},
+    {"temp-min-span", 0.1, 200, "deg C", "a span of temperatures"},
+    {"memory", 4, 1048576, "MB", "a memory to keep samples in"},
+};
+
+// `value` of option `key` within its Bounds (a key without bounds: any value).
+bool within_bounds(const std::string& key, const std::string& value, double v, std::string& error) {
+  for (const Bounds& b : kBounds) {
+    if (key != b.key) continue;
+    if (v >= b.lo && v <= b.hi) return true;
+    char range[64];
+    std::snprintf(range, sizeof range, "%.9g .. %.9g", b.lo, b.hi);
+    error = "--" + key + ": " + value + " is outside " + range + " " + b.unit + ": not " + b.what;
     return false;
   }
+  return true;
+}
+
+// A number within its option's bounds.
+bool bounded(const std::string& key, const std::string& value, double& out, std::string& error) {
+  double v = kNaN;
+  if (!parse_number(value, v) || !std::isfinite(v)) {
+    error = "--" + key + ": expected a number, found '" + value + "'";
+    return false;
+  }
+  if (!within_bounds(key, value, v, error)) return false;
+  out = v;
   return true;
 }
 
@@ -137,36 +176,25 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     if (!choice({"counts", "dps", "rads"}, i)) return false;
     o.gyro_unit = static_cast<GyroUnit>(i);
   } else if (key == "accel-lsb-per-g") {
-    return positive(key, value, o.accel_lsb_per_g, error);
+    return bounded(key, value, o.accel_lsb_per_g, error);
   } else if (key == "accel-zero") {
-    if (!parse_number(value, o.accel_zero) || !std::isfinite(o.accel_zero)) {
-      error = "--accel-zero: expected a number, found '" + value + "'";
-      return false;
-    }
+    return bounded(key, value, o.accel_zero, error);
   } else if (key == "gyro-lsb-per-dps") {
-    return positive(key, value, o.gyro_lsb_per_dps, error);
+    return bounded(key, value, o.gyro_lsb_per_dps, error);
   } else if (key == "gravity") {
-    if (!positive(key, value, o.gravity, error)) return false;
-    if (o.gravity < 9.7 || o.gravity > 9.9) {
-      error = "--gravity: " + value + " m/s^2 is not a gravity on Earth (9.7 .. 9.9)";
-      return false;
-    }
+    return bounded(key, value, o.gravity, error);
   } else if (key == "initial-rest") {
-    return positive(key, value, o.initial_rest, error);
+    return bounded(key, value, o.initial_rest, error);
   } else if (key == "min-rest") {
-    return positive(key, value, o.min_rest, error);
+    return bounded(key, value, o.min_rest, error);
   } else if (key == "accel-range") {
     return range(key, value, o.accel_min, o.accel_max, error);
   } else if (key == "gyro-range") {
     return range(key, value, o.gyro_min, o.gyro_max, error);
   } else if (key == "rate") {
-    return positive(key, value, o.nominal_rate_hz, error);
+    return bounded(key, value, o.nominal_rate_hz, error);
   } else if (key == "memory") {
-    if (!positive(key, value, o.memory_mb, error)) return false;
-    if (o.memory_mb < 4 || o.memory_mb > 1048576) {
-      error = "--memory: " + value + " MB is outside 4 .. 1048576";
-      return false;
-    }
+    return bounded(key, value, o.memory_mb, error);
   } else if (key == "columns") {
     std::vector<Field> names;
     split_fields(value, names);
@@ -181,7 +209,7 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     if (!choice({"counts", "ut", "nt", "gauss"}, i)) return false;
     o.mag_unit = static_cast<MagUnit>(i);
   } else if (key == "mag-lsb-per-ut") {
-    return positive(key, value, o.mag_lsb_per_ut, error);
+    return bounded(key, value, o.mag_lsb_per_ut, error);
   } else if (key == "mag-field-range") {
     double lo = kNaN, hi = kNaN;
     if (!range(key, value, lo, hi, error, "uT")) return false;
@@ -207,7 +235,7 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     if (!choice({"1", "2"}, i)) return false;
     o.temp_order = i + 1;
   } else if (key == "temp-min-span") {
-    return positive(key, value, o.temp_min_span, error);
+    return bounded(key, value, o.temp_min_span, error);
   } else if (key == "refine-gyro-bias") {
     o.refine_gyro_bias = true;
   } else if (key == "double") {

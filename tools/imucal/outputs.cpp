@@ -1,5 +1,5 @@
-// tools/imucal/outputs.cpp: summary, JSON, C header, truth comparison, and `imucal record`
-// (a stored calibration record, decoded and printed).
+// tools/imucal/outputs.cpp: what `imucal calibrate` writes: the summary, the JSON, the C header,
+// the comparison with a truth file; and the text and file helpers the commands share.
 #include "outputs.hpp"
 
 #include <fcntl.h>
@@ -23,7 +23,7 @@
 #include "cli.hpp"
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/gyro_model.hpp"
-#include "imucal/store/record.hpp"
+#include "imucal/models/mag_model.hpp"
 
 namespace imucal::cli {
 
@@ -79,39 +79,6 @@ using Json = nlohmann::ordered_json;
 // NaN and infinity become JSON null.
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
-std::string param_unit(int k, int scale_index, const char* unit, const char* out_unit) {
-  if (k < scale_index) return "rad";
-  if (k < scale_index + 3) return std::string("(") + out_unit + ")/" + unit;
-  return unit;
-}
-
-void print_params(std::FILE* out, const char* const* names, const double* p, const double* sd,
-                  int n, int scale_index, const char* unit, const char* out_unit) {
-  for (int k = 0; k < n; ++k)
-    std::fprintf(out, "  %-9s % .7e  +- %.2e  %s\n", names[k], p[k], sd[k],
-                 param_unit(k, scale_index, unit, out_unit).c_str());
-}
-
-std::string plural_of(long n, const char* one, const char* many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
-std::string fmt(const char* format, double v) {
-  if (!std::isfinite(v)) return "n/a";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, v);
-  return buf;
-}
-
-// "[x, y, z] +- [sx, sy, sz]" with one format.
-std::string vec_pm(const double* v, const double* sd, const char* format) {
-  std::string r = "[";
-  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt(format, v[a]);
-  r += "] +- [";
-  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt("%.2e", sd[a]);
-  return r + "]";
-}
-
 void print_mag_summary(const Run& run, const Options& o, std::FILE* out) {
   const MagResult& m = run.mag;
   if (!m.present) {
@@ -122,7 +89,7 @@ void print_mag_summary(const Run& run, const Options& o, std::FILE* out) {
   std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
   std::fprintf(out, "  status: %s; %ld readings, %d held (one per direction cell), %d fitted, %s\n",
                m.status.c_str(), m.readings, static_cast<int>(m.held.size()), m.samples,
-               plural_of(m.iterations, "iteration", "iterations").c_str());
+               plural(m.iterations, "iteration", "iterations").c_str());
   if (m.readings == 0) return;
   std::fprintf(out,
                "  coverage %s %% of the directions (needs %.0f %%), field %s uT (accepted %g .. "
@@ -191,7 +158,29 @@ void print_temperature_summary(const Run& run, const Options& o, std::FILE* out)
   sensor("gyroscope", t.gyro, gyro_unit_name(o.gyro_unit));
 }
 
+std::string param_unit(int k, int scale_index, const char* unit, const char* out_unit) {
+  if (k < scale_index) return "rad";
+  if (k < scale_index + 3) return std::string("(") + out_unit + ")/" + unit;
+  return unit;
+}
+
 }  // namespace
+
+void print_params(std::FILE* out, const char* const* names, const double* p, const double* sd,
+                  int n, int scale_index, const char* unit, const char* out_unit) {
+  for (int k = 0; k < n; ++k)
+    std::fprintf(out, "  %-9s % .7e  +- %.2e  %s\n", names[k], p[k], sd[k],
+                 param_unit(k, scale_index, unit, out_unit).c_str());
+}
+
+// "[x, y, z] +- [sx, sy, sz]" with one format.
+std::string vec_pm(const double* v, const double* sd, const char* format) {
+  std::string r = "[";
+  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt(format, v[a]);
+  r += "] +- [";
+  for (int a = 0; a < 3; ++a) r += (a ? ", " : "") + fmt("%.2e", sd[a]);
+  return r + "]";
+}
 
 void print_summary(const Run& run, const Options& o, std::FILE* out) {
   std::fprintf(out, "imucal calibrate (%s%s)\n", run.scalar.c_str(),
@@ -254,23 +243,23 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                  run.has_gyro ? "" : " (accelerometer alone)");
     if (run.has_gyro) {
       std::fprintf(out, "         %s between poses, stored as %s (the device's fixed memory)\n",
-                   plural_of(run.moves, "turn", "turns").c_str(),
-                   plural_of(run.segments, "gyro segment", "gyro segments").c_str());
+                   plural(run.moves, "turn", "turns").c_str(),
+                   plural(run.segments, "gyro segment", "gyro segments").c_str());
       if (run.coarsenings > 0)
         std::fprintf(out,
                      "         segment store full: adjacent segments merged %s to fit it (exact "
                      "sums of the turn statistics; each merge coarsens the integration of one "
                      "turn slightly)\n",
-                     plural_of(run.coarsenings, "time", "times").c_str());
+                     plural(run.coarsenings, "time", "times").c_str());
       if (run.moves_dropped > 0)
         std::fprintf(out,
                      "         %s not used for the gyroscope (across a gap, a frozen or saturated "
                      "sensor, a full pose store, or the end while turning)\n",
-                     plural_of(run.moves_dropped, "turn", "turns").c_str());
+                     plural(run.moves_dropped, "turn", "turns").c_str());
     }
     if (run.rests_too_short > 0)
       std::fprintf(out, "         %s shorter than --min-rest (%g s): %s\n",
-                   plural_of(run.rests_too_short, "rest", "rests").c_str(), o.min_rest,
+                   plural(run.rests_too_short, "rest", "rests").c_str(), o.min_rest,
                    run.rests_too_short == 1 ? "not a pose" : "not poses");
     for (const StreamEvent& e : run.events)
       std::fprintf(out, "         %s: %ld samples (first at t = %.3f s)\n", e.status.c_str(),
@@ -305,7 +294,7 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
                    "  %s split by a short motion that left the orientation as it was (a bump): "
                    "each part is a pose; a detector that smooths over the bump (imu_tk's) sees "
                    "%zu rests\n",
-                   plural_of(split, "rest was", "rests were").c_str(),
+                   plural(split, "rest was", "rests were").c_str(),
                    run.pose_list.size() - static_cast<std::size_t>(split));
   }
 
@@ -313,19 +302,18 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
   if (!run.has_accel) {
     std::fprintf(out, "\naccelerometer  not in the input\n");
   } else {
-    std::fprintf(out, "\naccelerometer  %s\n  status: %s%s\n", kAccelModel,
-                 run.accel_status.c_str(),
-                 !run.accel_ok ? ""
-                 : run.accel_iterations == 0
-                     ? " (closed-form start, no refinement needed)"
-                     : (" (closed-form start refined in " +
-                        plural_of(run.accel_iterations, "Levenberg-Marquardt iteration",
-                                  "Levenberg-Marquardt iterations") +
-                        ")")
-                           .c_str());
+    std::fprintf(
+        out, "\naccelerometer  %s\n  status: %s%s\n", kAccelModel, run.accel_status.c_str(),
+        !run.accel_ok               ? ""
+        : run.accel_iterations == 0 ? " (closed-form start, no refinement needed)"
+                                    : (" (closed-form start refined in " +
+                                       plural(run.accel_iterations, "Levenberg-Marquardt iteration",
+                                              "Levenberg-Marquardt iterations") +
+                                       ")")
+                                          .c_str());
   }
   if (run.accel_ok) {
-    print_params(out, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9, 3, au,
+    print_params(out, kAccelParamNames, run.accel_params.data(), run.accel_sigma.data(), 9, 3, au,
                  "m/s^2");
     std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: before %s, after %s m/s^2%s\n",
                  fmt("%.5f", run.accel_pose_rms_before).c_str(),
@@ -375,15 +363,15 @@ void print_summary(const Run& run, const Options& o, std::FILE* out) {
     std::fprintf(out, "\ngyroscope      %s\n  status: %s%s, bias %s\n", kGyroModel,
                  run.gyro_status.c_str(),
                  run.gyro_ok ? (" (" +
-                                plural_of(run.gyro_iterations, "Levenberg-Marquardt iteration",
-                                          "Levenberg-Marquardt iterations") +
+                                plural(run.gyro_iterations, "Levenberg-Marquardt iteration",
+                                       "Levenberg-Marquardt iterations") +
                                 ")")
                                    .c_str()
                              : "",
                  run.gyro_bias_refined ? "refined" : "from the initial rest");
   }
   if (run.gyro_ok) {
-    print_params(out, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12, 6, gu,
+    print_params(out, kGyroParamNames, run.gyro_params.data(), run.gyro_sigma.data(), 12, 6, gu,
                  "rad/s");
   }
   if (run.accel_ok && run.has_gyro) {
@@ -440,6 +428,25 @@ int write_all(int fd, const std::string& text) {
 
 }  // namespace
 
+bool outputs_apart_from_inputs(const std::vector<std::string>& inputs,
+                               const std::vector<NamedPath>& outputs) {
+  for (const NamedPath& out : outputs) {
+    struct stat o {};
+    if (out.path.empty() || out.path == "-" || ::stat(out.path.c_str(), &o) != 0) continue;
+    for (const std::string& in : inputs) {
+      struct stat i {};
+      if (in.empty() || in == "-" || ::stat(in.c_str(), &i) != 0) continue;
+      if (i.st_dev != o.st_dev || i.st_ino != o.st_ino) continue;
+      std::fprintf(stderr,
+                   "imucal: %s %s is the input %s (the same file): refused, it would be "
+                   "overwritten\n",
+                   out.option, out.path.c_str(), in.c_str());
+      return false;
+    }
+  }
+  return true;
+}
+
 std::string printed(const std::function<void(std::FILE*)>& print) {
   char* text = nullptr;
   std::size_t size = 0;
@@ -450,6 +457,17 @@ std::string printed(const std::function<void(std::FILE*)>& print) {
   std::string s(text, size);
   std::free(text);
   return s;
+}
+
+std::string fmt(const char* format, double v) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string plural(long n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
 std::string format_text(const char* format, ...) {
@@ -533,9 +551,8 @@ Json mag_json(const Run& run, const Options& o) {
     for (int r = 0; r < 3; ++r) s.push_back(vec3(m.soft_iron[r]));
     j["soft_iron"] = s;
     j["hard_iron"] = vec_sigma(m.hard_iron, m.hard_iron_sigma);
-    static const char* const kSym[6] = {"S00", "S11", "S22", "S01", "S02", "S12"};
     Json ss;
-    for (int k = 0; k < 6; ++k) ss[kSym[k]] = number(m.soft_iron_sigma[k]);
+    for (int k = 0; k < kMagSymEntries; ++k) ss[kMagSymNames[k]] = number(m.soft_iron_sigma[k]);
     j["soft_iron_sigma_symmetric"] = ss;
   }
   Json a;
@@ -680,7 +697,8 @@ std::string run_json(const Run& run, const Options& o) {
   accel["unit_in"] = accel_unit_name(o.accel_unit);
   accel["status"] = run.accel_status;
   accel["iterations"] = run.accel_iterations;
-  if (run.accel_ok) accel["parameters"] = params(kAccelNames, run.accel_params, run.accel_sigma, 9);
+  if (run.accel_ok)
+    accel["parameters"] = params(kAccelParamNames, run.accel_params, run.accel_sigma, 9);
   accel["residual_mps2"] = {{"pose_rms_before", number(run.accel_pose_rms_before)},
                             {"pose_rms_after", number(run.accel_pose_rms_after)},
                             {"sample_rms_after", number(run.accel_sample_rms_after)},
@@ -698,7 +716,8 @@ std::string run_json(const Run& run, const Options& o) {
   gyro["status"] = run.gyro_status;
   gyro["iterations"] = run.gyro_iterations;
   gyro["bias"] = run.gyro_bias_refined ? "refined" : "initial rest";
-  if (run.gyro_ok) gyro["parameters"] = params(kGyroNames, run.gyro_params, run.gyro_sigma, 12);
+  if (run.gyro_ok)
+    gyro["parameters"] = params(kGyroParamNames, run.gyro_params, run.gyro_sigma, 12);
   gyro["residual_deg"] = {{"move_rms_before", number(run.gyro_rms_before)},
                           {"move_rms_after", number(run.gyro_rms_after)}};
   gyro["imu_tk_cost"] = number(run.gyro_imu_tk_cost);
@@ -924,9 +943,9 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     }
     std::fprintf(out, "\n  %s: worst %.2f sigma\n", what, worst);
   };
-  table("accelerometer", *ta, kAccelNames, run.accel_params.data(), run.accel_sigma.data(), 9,
+  table("accelerometer", *ta, kAccelParamNames, run.accel_params.data(), run.accel_sigma.data(), 9,
         run.accel_ok, run.has_accel);
-  table("gyroscope", *tg, kGyroNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
+  table("gyroscope", *tg, kGyroParamNames, run.gyro_params.data(), run.gyro_sigma.data(), 12,
         run.gyro_ok, run.has_gyro);
   // The magnetometer and the temperature model, when the file has their truth (simulate).
   auto vec3 = [](const Json& j, double* v) {
@@ -973,170 +992,6 @@ bool compare_with_truth(const Run& run, const std::string& truth_path, std::FILE
     }
   }
   return true;
-}
-
-namespace {
-
-// The whole file ("-": stdin). False, with the reason, if it cannot be read.
-bool read_bytes(const std::string& path, std::vector<std::uint8_t>& out, std::string& error) {
-  std::FILE* f = path == "-" ? stdin : std::fopen(path.c_str(), "rb");
-  if (f == nullptr) {
-    error = std::strerror(errno);
-    return false;
-  }
-  std::uint8_t buf[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.insert(out.end(), buf, buf + n);
-  const bool ok = std::ferror(f) == 0;
-  if (!ok) error = std::strerror(errno);
-  if (f != stdin) std::fclose(f);
-  return ok;
-}
-
-void print_record(const CalibrationRecord& r, const std::string& path, std::size_t length,
-                  std::size_t file_size, std::FILE* out) {
-  const Calibration<float>& c = r.calibration;
-  static const char* const kQuality[4] = {"none", "poor", "fair", "good"};
-  std::fprintf(out, "imucal record %s: %zu bytes, format version %u, CRC-32 correct\n",
-               path.c_str(), length, static_cast<unsigned>(r.version));
-  if (file_size > length)
-    std::fprintf(out, "         the %zu bytes after it ignored (as in a flash slot)\n",
-                 file_size - length);
-  std::fprintf(out, "device   id %lu (0x%08lx), sensor id %lu (0x%08lx)\n",
-               static_cast<unsigned long>(r.device_id), static_cast<unsigned long>(r.device_id),
-               static_cast<unsigned long>(r.sensor_id), static_cast<unsigned long>(r.sensor_id));
-  const bool has_accel = (r.parts & kRecordAccel) != 0, has_gyro = (r.parts & kRecordGyro) != 0;
-  const bool has_mag = (r.parts & kRecordMag) != 0;
-  const bool has_temp = (r.parts & kRecordTemperature) != 0;
-  std::string parts;
-  for (const auto& [bit, name] :
-       {std::make_pair(has_accel, "accelerometer"), std::make_pair(has_gyro, "gyroscope"),
-        std::make_pair(has_mag, "magnetometer"), std::make_pair(has_temp, "temperature model")})
-    if (bit) parts += (parts.empty() ? "" : ", ") + std::string(name);
-  std::fprintf(out, "parts    %s\n", parts.c_str());
-  if (r.unknown_sections > 0)
-    std::fprintf(out, "         %d section(s) of a newer format skipped\n", r.unknown_sections);
-  std::fprintf(out, "rate     %s (measured over the initial rest)\n",
-               c.sample_rate_hz > 0 ? fmt("%.2f Hz", static_cast<double>(c.sample_rate_hz)).c_str()
-                                    : "unknown");
-  std::fprintf(
-      out, "temp     %s\n",
-      c.has_temperature
-          ? fmt("%.2f deg C (mean at calibration)", static_cast<double>(c.temperature_c)).c_str()
-          : "unknown");
-  if (has_accel) {
-    const AccelCalibration<float>& a = c.accel;
-    std::array<double, 9> p{}, sd{};
-    for (int k = 0; k < 9; ++k) {
-      p[static_cast<std::size_t>(k)] = static_cast<double>(a.params(k));
-      sd[static_cast<std::size_t>(k)] = static_cast<double>(a.sigma(k));
-    }
-    std::fprintf(out, "\naccelerometer  %s\n  %d poses\n", kAccelModel, a.poses);
-    print_params(out, kAccelNames, p.data(), sd.data(), 9, 3, "raw", "m/s^2");
-    std::fprintf(out, "  residual |g| - |a_cal| per pose, RMS: %s m/s^2\n",
-                 fmt("%.5f", static_cast<double>(a.residual_rms)).c_str());
-  }
-  if (has_gyro) {
-    const GyroCalibration<float>& g = c.gyro;
-    std::array<double, 12> p{}, sd{};
-    for (int k = 0; k < 12; ++k) {
-      p[static_cast<std::size_t>(k)] = static_cast<double>(g.params(k));
-      sd[static_cast<std::size_t>(k)] = static_cast<double>(g.sigma(k));
-    }
-    std::fprintf(out, "\ngyroscope      %s\n  %d moves, bias %s\n", kGyroModel, g.moves,
-                 g.bias_refined ? "refined" : "from the initial rest");
-    print_params(out, kGyroNames, p.data(), sd.data(), 12, 6, "raw", "rad/s");
-    const double rms = static_cast<double>(g.residual_rms);
-    std::fprintf(out, "  residual per move (sine of the gravity angle), RMS: %s (%s deg)\n",
-                 fmt("%.3e", rms).c_str(),
-                 fmt("%.3f", std::asin(std::min(rms, 1.0)) * kDeg).c_str());
-  }
-  if (has_mag) {
-    const MagCalibration<float>& m = r.mag;
-    std::fprintf(out, "\nmagnetometer   %s\n", kMagModel);
-    std::fprintf(out, "  %d samples, quality %s, field %s uT, fit error %s %%, coverage %s %%\n",
-                 m.samples, kQuality[static_cast<int>(m.quality) & 3],
-                 fmt("%.3f", static_cast<double>(m.field_ut)).c_str(),
-                 fmt("%.3f", static_cast<double>(m.fit_error_pct)).c_str(),
-                 fmt("%.1f", 100.0 * static_cast<double>(m.coverage)).c_str());
-    double hv[3], hs[3];
-    for (int a = 0; a < 3; ++a) {
-      hv[a] = static_cast<double>(m.hard_iron(a));
-      hs[a] = static_cast<double>(m.hard_iron_sigma(a));
-    }
-    std::fprintf(out, "  h   %s  raw (added)\n", vec_pm(hv, hs, "% .6g").c_str());
-    for (int i = 0; i < 3; ++i)
-      std::fprintf(out, "  S   [% .7e, % .7e, % .7e]  uT/raw\n",
-                   static_cast<double>(m.soft_iron(i, 0)), static_cast<double>(m.soft_iron(i, 1)),
-                   static_cast<double>(m.soft_iron(i, 2)));
-    if (succeeded(m.alignment_status))
-      std::fprintf(out, "  aligned to the accelerometer frame: dip %.3f +- %.3f deg\n",
-                   static_cast<double>(m.dip_deg), static_cast<double>(m.dip_sigma_deg));
-    else
-      std::fprintf(out, "  not aligned to the accelerometer frame\n");
-  }
-  if (has_temp) {
-    const TemperatureModel<float>& t = r.temperature;
-    std::fprintf(out, "\ntemperature    %s, replacing the constant bias\n", kTemperatureModel);
-    std::fprintf(out, "  order %d, T0 %.2f deg C, %d rests over %.2f .. %.2f deg C\n", t.order,
-                 static_cast<double>(t.reference_c), t.rests, static_cast<double>(t.min_c),
-                 static_cast<double>(t.max_c));
-    auto sensor = [&](const char* name, const TemperatureBias<float>& b) {
-      if (!succeeded(b.status)) {
-        std::fprintf(out, "  %s: not modelled\n", name);
-        return;
-      }
-      std::fprintf(out, "  %s:\n", name);
-      auto row = [&](const char* what, const Vector3<float>& v, const Vector3<float>& sd,
-                     const char* unit) {
-        double x[3], y[3];
-        for (int a = 0; a < 3; ++a) {
-          x[a] = static_cast<double>(v(a));
-          y[a] = static_cast<double>(sd(a));
-        }
-        std::fprintf(out, "    %s  %s  %s\n", what, vec_pm(x, y, "% .6e").c_str(), unit);
-      };
-      row("b0", b.b0, b.b0_sigma, "raw");
-      row("b1", b.b1, b.b1_sigma, "raw/degC");
-      if (t.order >= 2) row("b2", b.b2, b.b2_sigma, "raw/degC^2");
-    };
-    sensor("accelerometer", t.accel);
-    sensor("gyroscope", t.gyro);
-  }
-  std::fprintf(out, "\nquality  %s\n", kQuality[static_cast<int>(c.quality) & 3]);
-  std::fprintf(out,
-               "raw: the unit the recording was calibrated in (the record does not name it); b "
-               "is added to the raw reading\n");
-}
-
-}  // namespace
-
-int record_command(const std::vector<std::string>& args) {
-  if (args.size() != 1 || (args[0].size() > 1 && args[0][0] == '-')) {
-    std::fprintf(stderr,
-                 "imucal record: give one record file (or - for stdin): imucal record FILE\n");
-    return 2;
-  }
-  const std::string& path = args[0];
-  std::vector<std::uint8_t> bytes;
-  std::string error;
-  if (!read_bytes(path, bytes, error)) {
-    std::fprintf(stderr, "imucal: cannot read %s: %s\n", path.c_str(), error.c_str());
-    return 2;
-  }
-  static const std::uint8_t kNothing = 0;  // decode_record refuses a null pointer
-  const std::uint8_t* data = bytes.empty() ? &kNothing : bytes.data();
-  CalibrationRecord record;
-  std::size_t offset = 0;
-  const Status st = decode_record(data, bytes.size(), record, &offset);
-  if (st != Status::kOk) {
-    std::fprintf(stderr, "imucal: %s: %s, at byte %zu (of %zu)\n", path.c_str(), to_string(st),
-                 offset, bytes.size());
-    return 1;
-  }
-  const std::size_t length = static_cast<std::size_t>(bytes[6] | (bytes[7] << 8));
-  print_record(record, path, length, bytes.size(), stdout);
-  return 0;
 }
 
 }  // namespace imucal::cli

@@ -240,13 +240,11 @@ struct Run {
   std::string record_error;
 };
 
-extern const char* const kAccelNames[9];
 // Unit names, said once for the summary, the JSON, the header and the page.
 const char* accel_unit_name(AccelUnit u);
 const char* gyro_unit_name(GyroUnit u);
 const char* time_unit_name(TimeUnit u);
 const char* mag_unit_name(MagUnit u);
-extern const char* const kGyroNames[12];
 
 // The SVG report page: the signal over time with the rests shaded, |a| before and after, the
 // per-pose and per-move residuals, the pose directions on a sphere; with a magnetometer, its

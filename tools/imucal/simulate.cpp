@@ -9,6 +9,8 @@
 #include <string>
 
 #include "cli.hpp"
+#include "imucal/models/accel_model.hpp"
+#include "imucal/models/gyro_model.hpp"
 #include "imucal/sim/mag_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "outputs.hpp"
@@ -261,8 +263,8 @@ int simulate_command(const std::vector<std::string>& args) {
     a["model"] = kAccelModel;
     g["model"] = kGyroModel;
     a["convention"] = g["convention"] = kConvention;
-    for (int k = 0; k < 9; ++k) a["parameters"][kAccelNames[k]] = rec.acc.params(k);
-    for (int k = 0; k < 12; ++k) g["parameters"][kGyroNames[k]] = rec.gyro.params(k);
+    for (int k = 0; k < 9; ++k) a["parameters"][kAccelParamNames[k]] = rec.acc.params(k);
+    for (int k = 0; k < 12; ++k) g["parameters"][kGyroParamNames[k]] = rec.gyro.params(k);
     a["noise_per_sample"] = acc.noise;
     g["noise_per_sample"] = gyro.noise;
     j["accelerometer"] = a;

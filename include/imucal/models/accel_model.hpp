@@ -26,6 +26,11 @@ enum AccelIndex : int {
   kAccelParams = 9,
 };
 
+// The parameters' names, in AccelIndex order: the keys of the command's JSON and the names its
+// summary, its advice and the Python package print.
+inline constexpr const char* kAccelParamNames[kAccelParams] = {
+    "alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z", "b_x", "b_y", "b_z"};
+
 template <typename Scalar>
 using AccelVector = Eigen::Matrix<Scalar, kAccelParams, 1>;
 

@@ -33,6 +33,11 @@ enum GyroIndex : int {
   kGyroParams = 12,       // and the bias
 };
 
+// The parameters' names, in GyroIndex order (as kAccelParamNames).
+inline constexpr const char* kGyroParamNames[kGyroParams] = {
+    "gamma_yz", "gamma_zy", "gamma_zx", "gamma_xz", "gamma_xy", "gamma_yx",
+    "s_x",      "s_y",      "s_z",      "b_x",      "b_y",      "b_z"};
+
 template <typename Scalar>
 using GyroVector = Eigen::Matrix<Scalar, kGyroParams, 1>;
 

@@ -20,6 +20,9 @@ namespace imucal {
 
 // The six independent entries of a symmetric 3x3 matrix, in this order.
 enum MagSymIndex : int { kS00 = 0, kS11, kS22, kS01, kS02, kS12, kMagSymEntries };
+// Their names, in MagSymIndex order (the keys of the command's JSON).
+inline constexpr const char* kMagSymNames[kMagSymEntries] = {"S00", "S11", "S22",
+                                                             "S01", "S02", "S12"};
 template <typename Scalar>
 using MagSymVector = Eigen::Matrix<Scalar, kMagSymEntries, 1>;
 

@@ -64,8 +64,8 @@ struct AccelSettings {
 // by the fit's scatter alone.
 // (AccelCalibration, in calibration.hpp, carries the result.)
 
-// Parameter k (AccelIndex) by name ("alpha_yz" .. "bias_z"), and the orientations that pin it
-// down, in words, for a weak or held one.
+// Parameter k (AccelIndex) by name (kAccelParamNames: "alpha_yz" .. "b_z"), and the orientations
+// that pin it down, in words, for a weak or held one.
 const char* accel_parameter_name(int k);
 const char* accel_orientation_hint(int k);
 
