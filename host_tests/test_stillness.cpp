@@ -10,6 +10,7 @@
 
 #include "imucal/sim/random.hpp"
 #include "imucal/stream/stillness.hpp"
+#include "imucal/stream/sub_block.hpp"
 
 namespace imucal {
 namespace {
@@ -149,47 +150,95 @@ TEST(StillnessDetector, GyroThresholdFollowsTheMovesDouble) {
   threshold_follows_the_moves<double>();
 }
 
-// A glitch is refused before anything changes: the detector that saw it goes on exactly as one
-// that did not; a saturated reading is motion, never a glitch.
-template <typename Scalar>
-void glitch_leaves_no_trace() {
+// A glitch is refused before anything changes: the sub-block that saw it goes on exactly as one
+// that did not; a saturated reading is motion, never a glitch. Both accumulators, float and
+// 16-bit counts.
+template <typename Scalar, class Acc, class MakeInput>
+void glitch_leaves_no_trace(const MakeInput& input) {
   const StillnessSettings<Scalar> settings{};
-  StillnessDetector<Scalar> with, without;
+  StillnessDetector<Scalar> d;
   const Vector3<Scalar> var = Vector3<Scalar>::Constant(Scalar(4));  // raw counts^2
-  for (StillnessDetector<Scalar>* d : {&with, &without}) {
-    d->start(settings, Vector3<Scalar>::Zero(), var, Scalar(0.01));
-    d->set_glitch_limit(Scalar(1e4) * Scalar(4));  // 100 sigma
+  d.start(settings, Vector3<Scalar>::Zero(), var, Scalar(0.01));
+  d.set_glitch_limit(Scalar(1e4) * Scalar(4));  // 100 sigma
+  SubBlockLimits<Scalar> l;
+  d.limits(l);
+  l.weight = Scalar(0.01) / (settings.seconds + Scalar(0.01));
+  Acc with, without;
+  for (Acc* a : {&with, &without}) {
+    a->start(l);
+    a->set_averages(Vector3<Scalar>::Zero(), var.sum(), Scalar(0.01));
   }
   sim::Random rng(5);
   int still = 0, glitches = 0;
   for (int k = 0; k < 500; ++k) {
-    const Vector3<Scalar> a(static_cast<Scalar>(2 * rng.normal()),
-                            static_cast<Scalar>(2 * rng.normal()),
-                            static_cast<Scalar>(2 * rng.normal()));
-    const Vector3<Scalar> u = Vector3<Scalar>::Constant(static_cast<Scalar>(0.05 * rng.normal()));
-    const Scalar dt = Scalar(0.01);
+    const Vector3<double> a(2 * rng.normal(), 2 * rng.normal(), 2 * rng.normal());
+    const Vector3<double> u = Vector3<double>::Constant(0.05 * rng.normal());
+    const std::uint32_t t = 10000u * static_cast<std::uint32_t>(k + 1);
     if (k % 50 == 25) {
-      const Vector3<Scalar> far =
-          a + Vector3<Scalar>(Scalar(0), Scalar(150) * Scalar(2), Scalar(0));
-      ASSERT_EQ(with.update(far, u, dt, false), Stillness::kGlitch);
+      const Vector3<double> far = a + Vector3<double>(0, 300, 0);
+      ASSERT_FALSE(input(with, far, u, t, false));
       ++glitches;
       // The same reading flagged saturated is motion, not a glitch.
-      StillnessDetector<Scalar> copy = with;
-      EXPECT_EQ(copy.update(far, u, dt, true), Stillness::kMoving);
+      Acc copy = with;
+      ASSERT_TRUE(input(copy, far, u, t, true));
+      EXPECT_FALSE(copy.still());
     }
-    const Stillness s1 = with.update(a, u, dt, false);
-    const Stillness s2 = without.update(a, u, dt, false);
-    ASSERT_EQ(s1, s2);
-    ASSERT_EQ(with.sample_accel(), without.sample_accel());
-    ASSERT_EQ(with.sample_energy(), without.sample_energy());
-    still += s1 == Stillness::kStill;
+    ASSERT_TRUE(input(with, a, u, t, false));
+    ASSERT_TRUE(input(without, a, u, t, false));
+    ASSERT_EQ(with.still(), without.still());
+    still += with.still();
+    SubBlockStats<Scalar> s1, s2;
+    ASSERT_EQ(with.take_done(s1), without.take_done(s2));
+    if (with.size() >= 16) {  // sub-blocks of 16
+      s1 = with.finish();
+      s2 = without.finish();
+      ASSERT_EQ(s1.dev, s2.dev);
+      ASSERT_EQ(s1.energy, s2.energy);
+      ASSERT_EQ(s1.acc_sum, s2.acc_sum);
+      with.start(l);
+      without.start(l);
+    }
   }
   EXPECT_EQ(glitches, 10);
   EXPECT_GE(still, 490);  // white noise at the start's own level: still throughout
 }
 
-TEST(StillnessDetector, GlitchLeavesNoTraceFloat) { glitch_leaves_no_trace<float>(); }
-TEST(StillnessDetector, GlitchLeavesNoTraceDouble) { glitch_leaves_no_trace<double>(); }
+TEST(StillnessDetector, GlitchLeavesNoTraceFloat) {
+  glitch_leaves_no_trace<float, FloatSubBlock<float>>(
+      [](FloatSubBlock<float>& acc, const Vector3<double>& a, const Vector3<double>& u,
+         std::uint32_t t, bool saturated) {
+        ImuSample<float> s;
+        s.t_us = t;
+        s.acc = a.cast<float>();
+        s.gyro = u.cast<float>();
+        return acc.add(s, std::nanf(""), 0.0f, 10000u, saturated);
+      });
+}
+TEST(StillnessDetector, GlitchLeavesNoTraceDouble) {
+  glitch_leaves_no_trace<double, FloatSubBlock<double>>(
+      [](FloatSubBlock<double>& acc, const Vector3<double>& a, const Vector3<double>& u,
+         std::uint32_t t, bool saturated) {
+        ImuSample<double> s;
+        s.t_us = t;
+        s.acc = a;
+        s.gyro = u;
+        return acc.add(s, std::nan(""), 0.0, 10000u, saturated);
+      });
+}
+TEST(StillnessDetector, GlitchLeavesNoTraceCounts) {
+  // Counts: the readings scaled so that 2 units of noise are 20 counts (the limits alike).
+  glitch_leaves_no_trace<float, RawSubBlock<float>>(
+      [](RawSubBlock<float>& acc, const Vector3<double>& a, const Vector3<double>& u,
+         std::uint32_t t, bool saturated) {
+        RawFrame f;
+        f.t_us = t;
+        for (int i = 0; i < 3; ++i) {
+          f.acc[i] = static_cast<std::int16_t>(std::lround(a(i)));
+          f.gyro[i] = static_cast<std::int16_t>(std::lround(u(i)));
+        }
+        return acc.add(f, 10000u, saturated);
+      });
+}
 
 }  // namespace
 }  // namespace imucal

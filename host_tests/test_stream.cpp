@@ -570,7 +570,7 @@ void feed_rest_turn_rest(Segmenter<S, 8>& seg, SegmenterSink<S>& sink, sim::Rand
     if (turning) w(2) += rate;
     s.gyro = w.cast<S>();
     s.acc = (Vector3<double>(0.1, -0.2, 9.8) + 0.01 * rng.normal3()).cast<S>();
-    ASSERT_TRUE(seg.add(s, S(25), S(0), k == 0 && t == 10000u ? S(0) : S(0.01), false, sink));
+    ASSERT_TRUE(seg.add(s, S(25), S(0), k == 0 && t == 10000u ? 0u : 10000u, false, sink));
   }
 }
 
@@ -582,8 +582,8 @@ TEST(Segmenter, RestsAndTheMoveBetweenThem) {
   ASSERT_TRUE((Segmenter<float, 8>::valid(set)));
   seg.reset(set);
   const Vector3<double> bias(0.01, -0.02, 0.005);
-  seg.start(StillnessSettings<float>{}, V3(0.1f, -0.2f, 9.8f), V3::Zero(), V3::Constant(1e-4f),
-            3.0f * 4e-6f, to_float(bias));
+  seg.start(StillnessSettings<float>{}, V3(0.1f, -0.2f, 9.8f), V3::Constant(1e-4f), 3.0f * 4e-6f,
+            to_float(bias));
   SegmenterSink<float> sink;
   sink.seg = &seg;
   sim::Random rng(5);
@@ -617,9 +617,9 @@ TEST(Segmenter, ChangingTheBiasMovesWhatIsHeldExactly) {
   sb.seg = &b;
   for (auto* s : {&a, &b}) s->reset(SegmenterSettings<double>{});
   // Stillness from the accelerometer alone, so that both see the same rest whatever their bias.
-  a.start(StillnessSettings<double>{}, Vector3<double>(0.1, -0.2, 9.8), Vector3<double>::Zero(),
+  a.start(StillnessSettings<double>{}, Vector3<double>(0.1, -0.2, 9.8),
           Vector3<double>::Constant(1e-4), 0.0, bias);
-  b.start(StillnessSettings<double>{}, Vector3<double>(0.1, -0.2, 9.8), Vector3<double>::Zero(),
+  b.start(StillnessSettings<double>{}, Vector3<double>(0.1, -0.2, 9.8),
           Vector3<double>::Constant(1e-4), 0.0, Vector3<double>::Zero());
   sim::Random ra(9), rb(9);
   std::uint32_t ta = 0, tb = 0;
@@ -635,7 +635,7 @@ TEST(Segmenter, ChangingTheBiasMovesWhatIsHeldExactly) {
     s.t_us = tb;
     s.gyro = 0.002 * rb.normal3() - bias;
     s.acc = Vector3<double>(0.1, -0.2, 9.8) + 0.01 * rb.normal3();
-    ASSERT_TRUE(b.add(s, 25.0, 0.0, k == 0 ? 0.0 : 0.01, false, sb));
+    ASSERT_TRUE(b.add(s, 25.0, 0.0, k == 0 ? 0u : 10000u, false, sb));
   }
   ASSERT_TRUE(b.end(sb));
   ASSERT_EQ(sa.rests.size(), 1u);
@@ -657,8 +657,8 @@ TEST(Segmenter, ALongRestIsSplitAtMaxRestSeconds) {
   ASSERT_TRUE((Segmenter<float, 8>::valid(set)));
   seg.reset(set);
   const Vector3<double> bias = Vector3<double>::Zero();
-  seg.start(StillnessSettings<float>{}, V3(0.1f, -0.2f, 9.8f), V3::Zero(), V3::Constant(1e-4f),
-            1.2e-5f, V3::Zero());
+  seg.start(StillnessSettings<float>{}, V3(0.1f, -0.2f, 9.8f), V3::Constant(1e-4f), 1.2e-5f,
+            V3::Zero());
   SegmenterSink<float> sink;
   sink.seg = &seg;
   sim::Random rng(6);

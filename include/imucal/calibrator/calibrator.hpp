@@ -43,6 +43,7 @@
 #include "imucal/status.hpp"
 #include "imucal/stream/blocks.hpp"
 #include "imucal/stream/checks.hpp"
+#include "imucal/stream/fifo.hpp"
 #include "imucal/stream/initial_rest.hpp"
 #include "imucal/stream/rest_summary.hpp"
 #include "imucal/stream/segmenter.hpp"
@@ -107,6 +108,42 @@ class Calibrator {
     ImuSample<Scalar> s = sample;
     s.gyro.setZero();  // ignored, whatever it reads
     return take(s);
+  }
+
+  // One frame of 16-bit counts (a sensor's data registers), with the temperature if one was
+  // read with it (NaN: none; one reading a second is enough, the rests' temperatures are means).
+  // The same statuses as add(); after the initial rest its per-sample work is integer sums only.
+  // A stream is frames or samples: one kind from the start (or a reset()).
+  Status add_raw(const RawFrame& frame,
+                 Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
+    if (!settings_ok_) return checks_.refuse(Status::kInvalidArgument);
+    if (settings_.has_gyro) return take_raw(frame, temperature);
+    RawFrame f = frame;
+    f.gyro[0] = f.gyro[1] = f.gyro[2] = 0;  // ignored, whatever it reads
+    return take_raw(f, temperature);
+  }
+
+  // A batch of frames as the sensor's FIFO delivers them (fifo.hpp: where the readings are in
+  // each frame, when each was taken), and the temperature read with the batch (NaN: none).
+  // Each frame gets the status add_raw() would give it: counted in the result, and written to
+  // statuses[k] if given (count entries). An invalid layout or a null buffer refuses every frame
+  // with kInvalidArgument.
+  FifoResult add_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
+                      const FifoTiming& timing,
+                      Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN(),
+                      Status* statuses = nullptr) {
+    FifoResult r;
+    const bool ok = data != nullptr && layout.valid();
+    for (std::uint32_t k = 0; k < count; ++k) {
+      const Status s = ok ? add_raw(fifo_frame(data, k, layout, timing),
+                                    k == 0 ? temperature : std::numeric_limits<Scalar>::quiet_NaN())
+                          : checks_.refuse(Status::kInvalidArgument);
+      count_fifo_status(
+          r, s,
+          sample_taken(s) || s == Status::kInitialRestDisturbed || s == Status::kCapacityExceeded);
+      if (statuses != nullptr) statuses[k] = s;
+    }
+    return r;
   }
 
   Progress progress() const {
@@ -210,7 +247,7 @@ class Calibrator {
 
  private:
   using Block = SampleBlock<Scalar>;
-  template <typename, int>
+  template <typename, int, int>
   friend class Segmenter;
   template <typename>
   friend class StreamChecks;
@@ -242,7 +279,7 @@ class Calibrator {
       }
       return initial_rest_sample(in, c.dt, result);
     }
-    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.dt, c.acc_saturated,
+    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.step_us, c.acc_saturated,
                         *this)) {
       // Not taken: a reading this far off is no acceleration a hand makes. The previous
       // sample stays the reference, so the interval spans the refused one.
@@ -254,6 +291,43 @@ class Calibrator {
       return Status::kCapacityExceeded;
     }
     return result;
+  }
+
+  // add_raw() of a frame whose gyro reading is to be used.
+  Status take_raw(const RawFrame& f, Scalar temperature) {
+    if (phase_ == Phase::kSolving || phase_ == Phase::kDone || phase_ == Phase::kFailed)
+      return checks_.refuse_busy();
+    CheckedSample<Scalar> c;
+    Status result = checks_.check(f, temperature, *this, c);
+    if (result != Status::kOk && !sample_taken(result)) return result;
+    if (phase_ == Phase::kInitialRest) {
+      checks_.accept(f);
+      if (c.acc_saturated) {
+        restart_initial_rest();
+        return result;
+      }
+      return initial_rest_sample(to_sample(f, c.temperature), c.dt, result);
+    }
+    if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
+    if (!detail::is_nan(c.temperature))
+      segmenter_.add_raw_temperature(c.temperature, checks_.temperature().ref());
+    checks_.accept(f);
+    if (pose_store_full_reported_ && result == Status::kOk) {
+      pose_store_full_reported_ = false;
+      return Status::kCapacityExceeded;
+    }
+    return result;
+  }
+
+  static ImuSample<Scalar> to_sample(const RawFrame& f, Scalar temperature) {
+    ImuSample<Scalar> s;
+    s.t_us = f.t_us;
+    for (int i = 0; i < 3; ++i) {
+      s.acc(i) = static_cast<Scalar>(f.acc[i]);
+      s.gyro(i) = static_cast<Scalar>(f.gyro[i]);
+    }
+    s.temperature = temperature;
+    return s;
   }
 
   bool check_settings() const {
@@ -331,9 +405,9 @@ class Calibrator {
     b0_sigma_ = (gv0_ / n).cwiseSqrt();  // of the mean rate
     period_ = f.period;
     // The detector starts from the rest's own statistics.
-    segmenter_.start(settings_.stillness, f.acc_ref, Vector3<Scalar>(f.acc_sum / n), v0_,
-                     gv0_.sum(), b0);
-    segmenter_.set_glitch_limit(settings_.glitch_sigma * settings_.glitch_sigma * v0_.maxCoeff());
+    segmenter_.start(settings_.stillness, Vector3<Scalar>(f.acc_ref + f.acc_sum / n), v0_,
+                     gv0_.sum(), b0,
+                     settings_.glitch_sigma * settings_.glitch_sigma * v0_.maxCoeff(), f.period);
     Block rest{};
     rest.acc_ref = f.acc_ref;
     rest.acc_sum = f.acc_sum;

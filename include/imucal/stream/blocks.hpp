@@ -15,6 +15,7 @@
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/stream/rest_summary.hpp"
 #include "imucal/stream/ring.hpp"
+#include "imucal/stream/sub_block.hpp"
 
 namespace imucal {
 
@@ -55,28 +56,41 @@ struct SampleBlock {
     return acc_ref + (acc_sum + acc_comp) / static_cast<Scalar>(n);
   }
 
+  // A sub-block's samples follow this block's.
+  void add(const SubBlockStats<Scalar>& s) { fold(s, Vector3<Scalar>::Zero(), s.dev, s.energy); }
+
   // The later block's samples follow this one's.
   void append(const SampleBlock& later) {
-    seg.append(later.seg);
+    fold(later, later.acc_comp, later.accel_cue, later.energy_cue);
+  }
+
+  // The samples of b (a block or a sub-block: the same fields) follow this block's.
+  template <class B>
+  void fold(const B& b, const Vector3<Scalar>& comp, Scalar b_accel_cue, Scalar b_energy_cue) {
+    seg.append(b.seg);
+    add_acc(b.acc_ref, b.acc_sum, comp, b.n);
+    path += b.path;
+    accel_cue += b_accel_cue;
+    energy_cue += b_energy_cue;
+    temp_sum += b.temp_sum;
+    temp_n += b.temp_n;
+    if (n == 0) t_begin = b.t_begin;
+    n += b.n;
+    t_end = b.t_end;
+  }
+
+  // A sum of m readings about ref (sum + comp) joins this block's: moved to this block's reference
+  // (m (ref - acc_ref): exact for raw counts), added compensated.
+  void add_acc(const Vector3<Scalar>& ref, const Vector3<Scalar>& sum, const Vector3<Scalar>& comp,
+               std::uint32_t m) {
     if (n == 0) {
-      acc_ref = later.acc_ref;
-      acc_sum = later.acc_sum;
-      acc_comp = later.acc_comp;
-    } else {
-      // The later block's sum moved to this reference (n (ref' - ref): exact for raw counts),
-      // added compensated.
-      const Vector3<Scalar> add =
-          later.acc_sum + later.acc_comp + static_cast<Scalar>(later.n) * (later.acc_ref - acc_ref);
-      for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), add(i));
+      acc_ref = ref;
+      acc_sum = sum;
+      acc_comp = comp;
+      return;
     }
-    path += later.path;
-    accel_cue += later.accel_cue;
-    energy_cue += later.energy_cue;
-    temp_sum += later.temp_sum;
-    temp_n += later.temp_n;
-    if (n == 0) t_begin = later.t_begin;
-    n += later.n;
-    t_end = later.t_end;
+    const Vector3<Scalar> moved = sum + comp + static_cast<Scalar>(m) * (ref - acc_ref);
+    for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), moved(i));
   }
 
   // As a pose's noise (Pose::noise): the variance of one sample on one axis, from the detector's

@@ -212,9 +212,10 @@ struct StreamSettings {
     return gap_factor > Scalar(1) && max_step_seconds > Scalar(0) &&
            // Durations become microseconds in uint32: keep them far from 2^32 us (71 min).
            max_step_seconds <= Scalar(600) && frozen_seconds > Scalar(0) &&
-           temperature_min_c < temperature_max_c && clock_reset_samples >= 1 &&
-           !(accel_min != accel_min) && !(accel_max != accel_max) && !(gyro_min != gyro_min) &&
-           !(gyro_max != gyro_max) && nominal_rate_hz >= Scalar(0) && rate_tolerance > Scalar(0);
+           frozen_seconds <= Scalar(600) && temperature_min_c < temperature_max_c &&
+           clock_reset_samples >= 1 && !(accel_min != accel_min) && !(accel_max != accel_max) &&
+           !(gyro_min != gyro_min) && !(gyro_max != gyro_max) && nominal_rate_hz >= Scalar(0) &&
+           rate_tolerance > Scalar(0);
   }
 };
 
@@ -229,7 +230,8 @@ constexpr bool sample_taken(Status s) {
 // What the front end made of a sample it let through.
 template <typename Scalar>
 struct CheckedSample {
-  Scalar dt = Scalar(0);  // seconds since the previous sample taken (0: the stream starts here)
+  std::uint32_t step_us = 0;       // since the previous sample taken (0: the stream starts here)
+  Scalar dt = Scalar(0);           // the same in seconds
   Scalar temperature = Scalar(0);  // deg C; NaN: none, or ignored as implausible
   bool acc_saturated = false;      // the accelerometer at full scale: the sample says no rest
 };
@@ -247,7 +249,7 @@ class StreamChecks {
   // refuses every sample while they are not valid: check() assumes they are.
   void reset(const StreamSettings<Scalar>& s) {
     has_gyro_ = s.has_gyro;
-    frozen_seconds_ = s.frozen_seconds;
+    frozen_limit_us_ = static_cast<std::uint32_t>(s.frozen_seconds * Scalar(1e6));
     temperature_min_ = s.temperature_min_c;
     temperature_max_ = s.temperature_max_c;
     nominal_rate_ = s.nominal_rate_hz;
@@ -255,11 +257,16 @@ class StreamChecks {
     clock_reset_samples_ = s.clock_reset_samples;
     acc_scale_.set(s.accel_min, s.accel_max);
     gyro_scale_.set(s.gyro_min, s.gyro_max);
+    acc_lo_ = int_floor(s.accel_min);
+    acc_hi_ = int_ceil(s.accel_max);
+    gyro_lo_ = int_floor(s.gyro_min);
+    gyro_hi_ = int_ceil(s.gyro_max);
     have_prev_ = false;
     restart_ = true;
     frozen_ = false;
-    frozen_time_ = Scalar(0);
+    frozen_us_ = 0;
     t_prev_ = 0;
+    raw_prev_ = RawFrame{};
     acc_prev_.setZero();
     gyro_prev_.setZero();
     clock_.reset();
@@ -296,6 +303,51 @@ class StreamChecks {
       gyro_saturated = gyro_scale_.outside(s.gyro);
       acc_saturated = acc_scale_.outside(s.acc);
     }
+    return check_stream(s, s.temperature, gyro_saturated, acc_saturated, sink, out);
+  }
+
+  // One frame of 16-bit counts and the temperature with it (NaN: none): as check().
+  template <class Sink>
+  __attribute__((always_inline)) Status check(const RawFrame& f, Scalar temperature, Sink& sink,
+                                              CheckedSample<Scalar>& out) {
+    const bool acc_saturated = f.acc[0] <= acc_lo_ || f.acc[0] >= acc_hi_ || f.acc[1] <= acc_lo_ ||
+                               f.acc[1] >= acc_hi_ || f.acc[2] <= acc_lo_ || f.acc[2] >= acc_hi_;
+    const bool gyro_saturated = f.gyro[0] <= gyro_lo_ || f.gyro[0] >= gyro_hi_ ||
+                                f.gyro[1] <= gyro_lo_ || f.gyro[1] >= gyro_hi_ ||
+                                f.gyro[2] <= gyro_lo_ || f.gyro[2] >= gyro_hi_;
+    return check_stream(f, temperature, gyro_saturated, acc_saturated, sink, out);
+  }
+
+  // The sample check() let through was taken: the next is ordered against it.
+  void accept(const ImuSample<Scalar>& s) {
+    acc_prev_ = s.acc;
+    gyro_prev_ = s.gyro;
+    t_prev_ = s.t_us;
+    have_prev_ = true;
+  }
+  void accept(const RawFrame& f) {
+    raw_prev_ = f;
+    t_prev_ = f.t_us;
+    have_prev_ = true;
+  }
+
+ private:
+  // Whether either sensor repeats its previous reading exactly.
+  bool repeats(const ImuSample<Scalar>& s) const {
+    return same_reading(s.acc, acc_prev_) || (has_gyro_ && same_reading(s.gyro, gyro_prev_));
+  }
+  bool repeats(const RawFrame& f) const {
+    const RawFrame& p = raw_prev_;
+    return (f.acc[0] == p.acc[0] && f.acc[1] == p.acc[1] && f.acc[2] == p.acc[2]) ||
+           (has_gyro_ && f.gyro[0] == p.gyro[0] && f.gyro[1] == p.gyro[1] &&
+            f.gyro[2] == p.gyro[2]);
+  }
+
+  // The checks of the stream itself, after the readings' own.
+  template <class Sink, class Frame>
+  __attribute__((always_inline)) Status check_stream(const Frame& s, Scalar temperature,
+                                                     bool gyro_saturated, bool acc_saturated,
+                                                     Sink& sink, CheckedSample<Scalar>& out) {
     std::int32_t step = 0;
     Status result = Status::kOk;
     if (have_prev_) {
@@ -310,13 +362,11 @@ class StreamChecks {
       }
     }
     clock_.in_order();
-    Scalar dt = static_cast<Scalar>(step) * Scalar(1e-6);
     // Frozen: either sensor's reading the same as its previous one for frozen_seconds.
-    if (have_prev_ && !restart_ &&
-        (same_reading(s.acc, acc_prev_) || (has_gyro_ && same_reading(s.gyro, gyro_prev_)))) {
-      frozen_time_ += dt;
+    if (have_prev_ && !restart_ && repeats(s)) {
+      frozen_us_ += static_cast<std::uint32_t>(step);
       t_prev_ = s.t_us;
-      if (frozen_time_ >= frozen_seconds_) {
+      if (frozen_us_ >= frozen_limit_us_) {
         if (!frozen_) {
           last_event_ = Status::kSensorFrozen;
           sink.sensor_froze();
@@ -326,8 +376,8 @@ class StreamChecks {
         ++refused_;
         return Status::kSensorFrozen;
       }
-    } else if (frozen_time_ > Scalar(0)) {
-      frozen_time_ = Scalar(0);
+    } else if (frozen_us_ > 0) {
+      frozen_us_ = 0;
       if (frozen_) {
         frozen_ = false;
         restart_ = true;  // the stream starts again after the frozen spell
@@ -341,13 +391,11 @@ class StreamChecks {
       restart_ = true;
     }
     if (restart_) {  // first sample after a start, a gap or a reset: no interval
-      dt = Scalar(0);
       step = 0;
       restart_ = false;
       rate_.restart();
     }
-    Scalar temperature = s.temperature;
-    if (temperature == temperature) {  // NaN: no temperature sensor
+    if (!detail::is_nan(temperature)) {  // NaN: no temperature sensor
       if (temperature >= temperature_min_ && temperature <= temperature_max_) {
         temperature_.add(temperature);
       } else {
@@ -366,20 +414,14 @@ class StreamChecks {
       last_event_ = Status::kSampleRateOff;
       if (result == Status::kOk) result = Status::kSampleRateOff;
     }
-    out.dt = dt;
+    out.step_us = static_cast<std::uint32_t>(step);
+    out.dt = static_cast<Scalar>(step) * Scalar(1e-6);
     out.temperature = temperature;
     out.acc_saturated = acc_saturated;
     return result;
   }
 
-  // The sample check() let through was taken: the next is ordered against it.
-  void accept(const ImuSample<Scalar>& s) {
-    acc_prev_ = s.acc;
-    gyro_prev_ = s.gyro;
-    t_prev_ = s.t_us;
-    have_prev_ = true;
-  }
-
+ public:
   // A sample refused by the consumer (counted in refused()); returns s.
   Status refuse(Status s) {
     ++refused_;
@@ -410,6 +452,16 @@ class StreamChecks {
   const TemperatureMean<Scalar>& temperature() const { return temperature_; }
 
  private:
+  // A limit as a count: x <= floor(lo) and x >= ceil(hi) for an integer x are x <= lo and
+  // x >= hi; limits outside the 16-bit range are out of reach.
+  static std::int32_t int_floor(Scalar lo) {
+    if (!(lo > Scalar(-65536))) return -65536;
+    if (!(lo < Scalar(65536))) return 65536;
+    const std::int32_t i = static_cast<std::int32_t>(lo);
+    return static_cast<Scalar>(i) > lo ? i - 1 : i;
+  }
+  static std::int32_t int_ceil(Scalar hi) { return -int_floor(-hi); }
+
   // A timestamp behind the clock: refused (kTimeBackwards), or the clock was reset (kClockReset:
   // the sample starts the stream again, as after a gap). Out of line, as every rare path.
   template <class Sink>
@@ -426,8 +478,8 @@ class StreamChecks {
 
   // A gyro at full scale: the rotation over this interval is unknown, nothing can be integrated
   // across it. Refused; it is the sample the next is ordered against.
-  template <class Sink>
-  __attribute__((noinline)) Status gyro_at_full_scale(const ImuSample<Scalar>& s, Sink& sink) {
+  template <class Sink, class Frame>
+  __attribute__((noinline)) Status gyro_at_full_scale(const Frame& s, Sink& sink) {
     accept(s);
     ++counts_.gyro_saturated;
     if (!restart_) sink.stream_cut();
@@ -443,7 +495,10 @@ class StreamChecks {
   std::uint32_t t_prev_ = 0, gap_us_ = 0;
   Vector3<Scalar> acc_prev_ = Vector3<Scalar>::Zero(), gyro_prev_ = Vector3<Scalar>::Zero();
   FullScale<Scalar> acc_scale_{}, gyro_scale_{};
-  Scalar frozen_time_ = Scalar(0), frozen_seconds_ = Scalar(0);
+  std::uint32_t frozen_us_ = 0, frozen_limit_us_ = 0;
+  RawFrame raw_prev_{};
+  // The full scale for 16-bit counts: a count at or beyond a limit is saturated.
+  std::int32_t acc_lo_ = -65536, acc_hi_ = 65536, gyro_lo_ = -65536, gyro_hi_ = 65536;
   Scalar temperature_min_ = Scalar(0), temperature_max_ = Scalar(0);
   Scalar nominal_rate_ = Scalar(0), rate_tolerance_ = Scalar(0);
   int clock_reset_samples_ = 3;

@@ -98,19 +98,31 @@ class RestMonitor {
     CheckedSample<Scalar> c;
     const Status result = checks_.check(s, *this, c);
     if (result != Status::kOk && !sample_taken(result)) return result;
-    if (!started_) {
-      segmenter_.start(settings_.stillness, s.acc, Vector3<Scalar>::Zero(),
-                       Vector3<Scalar>::Constant(settings_.accel_noise / Scalar(3)),
-                       settings_.has_gyro ? settings_.gyro_noise : Scalar(0),
-                       Vector3<Scalar>(-settings_.gyro_rest_reading));
-      segmenter_.set_glitch_limit(settings_.glitch_sigma * settings_.glitch_sigma *
-                                  settings_.accel_noise);
-      started_ = true;
-    }
-    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.dt, c.acc_saturated,
+    if (!started_) start(s.acc);
+    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.step_us, c.acc_saturated,
                         *this))
       return checks_.refuse_glitch();
     checks_.accept(s);
+    return result;
+  }
+
+  // One frame of 16-bit counts, with the temperature if one was read with it (NaN: none): as
+  // add(), with integer work only per sample. A stream is frames or samples: one kind.
+  Status add_raw(const RawFrame& in,
+                 Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
+    if (!valid_) return checks_.refuse(Status::kInvalidArgument);
+    RawFrame f = in;
+    if (!settings_.has_gyro) f.gyro[0] = f.gyro[1] = f.gyro[2] = 0;
+    CheckedSample<Scalar> c;
+    const Status result = checks_.check(f, temperature, *this, c);
+    if (result != Status::kOk && !sample_taken(result)) return result;
+    if (!started_)
+      start(Vector3<Scalar>(static_cast<Scalar>(f.acc[0]), static_cast<Scalar>(f.acc[1]),
+                            static_cast<Scalar>(f.acc[2])));
+    if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
+    if (!detail::is_nan(c.temperature))
+      segmenter_.add_raw_temperature(c.temperature, checks_.temperature().ref());
+    checks_.accept(f);
     return result;
   }
 
@@ -144,10 +156,20 @@ class RestMonitor {
 
  private:
   using Block = SampleBlock<Scalar>;
-  template <typename, int>
+  template <typename, int, int>
   friend class Segmenter;
   template <typename>
   friend class StreamChecks;
+
+  // The detector starts from the first reading and the noise the settings give.
+  void start(const Vector3<Scalar>& acc) {
+    segmenter_.start(settings_.stillness, acc,
+                     Vector3<Scalar>::Constant(settings_.accel_noise / Scalar(3)),
+                     settings_.has_gyro ? settings_.gyro_noise : Scalar(0),
+                     Vector3<Scalar>(-settings_.gyro_rest_reading),
+                     settings_.glitch_sigma * settings_.glitch_sigma * settings_.accel_noise);
+    started_ = true;
+  }
 
   static bool check(const RestMonitorSettings<Scalar>& s) {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };

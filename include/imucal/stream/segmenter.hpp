@@ -1,6 +1,8 @@
 // imucal/stream/segmenter.hpp: splits a checked sample stream (checks.hpp) into rests and moves.
-// Every sample goes through the stillness detector (stillness.hpp) and into a short block
-// (blocks.hpp: at most block_seconds, all still or all moving, each a valid gyro segment). Still
+// Samples are summed into sub-blocks (sub_block.hpp: 16-bit counts in integers, or readings in
+// the scalar type); each sub-block goes through the stillness detector (stillness.hpp) and into a
+// short block (blocks.hpp: at most block_seconds, all still or all moving, each a valid gyro
+// segment). Still
 // blocks wait in a delay line of trim_seconds: a still block followed by trim_seconds of stillness
 // joins the open rest; when motion comes, the blocks still in the line (the rest's last
 // trim_seconds, which the moving averages saw only late) go to the move. A rest ends at motion, at
@@ -25,6 +27,7 @@
 #include "imucal/stream/blocks.hpp"
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/stream/stillness.hpp"
+#include "imucal/stream/sub_block.hpp"
 #include "imucal/types.hpp"
 
 namespace imucal {
@@ -32,6 +35,10 @@ namespace imucal {
 // What the segmenter is set up with (seconds; accelerometer in raw units).
 template <typename Scalar>
 struct SegmenterSettings {
+  // A sub-block (the detector's step) lasts at most this long, and holds at most the segmenter's
+  // SubBlockSamples samples: the per-sample work is integer sums (or float sums), the float
+  // work happens once a sub-block.
+  Scalar sub_block_seconds = Scalar(0.05);
   Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
   Scalar min_rest_seconds = Scalar(0.6);  // a shorter still spell is part of the move
@@ -42,15 +49,18 @@ struct SegmenterSettings {
   Scalar accel_shift_max = std::numeric_limits<Scalar>::infinity();
 };
 
-template <typename Scalar, int DelayBlocks>
+template <typename Scalar, int DelayBlocks, int SubBlockSamples = 16>
 class Segmenter {
  public:
   static_assert(DelayBlocks >= 2, "delay line too short");
+  static_assert(SubBlockSamples >= 1 && SubBlockSamples <= kMaxSubBlockSamples,
+                "sub-block of 1 to kMaxSubBlockSamples samples");
   using Block = SampleBlock<Scalar>;
 
   // Settings valid for this delay line (trim_seconds fits in it; durations far from 2^32 us).
   static bool valid(const SegmenterSettings<Scalar>& s) {
-    return s.block_seconds > Scalar(0) && s.block_seconds <= Scalar(60) &&
+    return s.sub_block_seconds > Scalar(0) && s.sub_block_seconds <= s.block_seconds &&
+           s.block_seconds > Scalar(0) && s.block_seconds <= Scalar(60) &&
            s.trim_seconds >= Scalar(0) && s.trim_seconds <= Scalar(60) &&
            s.trim_seconds <= s.block_seconds * Scalar(DelayBlocks - 1) &&
            s.min_rest_seconds > Scalar(0) && s.max_rest_seconds >= s.min_rest_seconds &&
@@ -59,41 +69,48 @@ class Segmenter {
 
   // Forgets everything and takes the settings (check them with valid() first).
   void reset(const SegmenterSettings<Scalar>& s) {
+    sub_us_ = static_cast<std::uint32_t>(s.sub_block_seconds * Scalar(1e6));
     block_us_ = static_cast<std::uint32_t>(s.block_seconds * Scalar(1e6));
     trim_us_ = static_cast<std::uint32_t>(s.trim_seconds * Scalar(1e6));
     min_rest_seconds_ = s.min_rest_seconds;
     max_rest_seconds_ = s.max_rest_seconds;
     accel_shift_max_ = s.accel_shift_max;
     clear();
-    last_still_ = true;
-    u_prev_.setZero();
+    raw_mode_ = false;
+    open_sub_block();
+    raw_.forget_rate();
+    float_.forget_rate();
   }
 
-  // Starts the detector from a still period: the accelerometer's reference (sums and the
-  // detector work relative to it), its mean relative to it and per-axis variance, the gyro's
-  // energy with the bias removed (0: no gyro cue), and the bias added to every gyro reading.
-  void start(const StillnessSettings<Scalar>& stillness, const Vector3<Scalar>& acc_ref,
-             const Vector3<Scalar>& acc_mean, const Vector3<Scalar>& acc_var, Scalar gyro_energy,
-             const Vector3<Scalar>& gyro_bias) {
-    a_ref_ = acc_ref;
+  // Starts the detector from a still period: the accelerometer's mean (raw) and per-axis
+  // variance, the gyro's energy with the bias removed (0: no gyro cue), and the bias added to
+  // every gyro reading.
+  // Readings further than sqrt(glitch_limit2) from the detector's moving mean are glitches;
+  // interval: the sample period if known (0: learned from the first sub-block).
+  void start(const StillnessSettings<Scalar>& stillness, const Vector3<Scalar>& acc_mean,
+             const Vector3<Scalar>& acc_var, Scalar gyro_energy, const Vector3<Scalar>& gyro_bias,
+             Scalar glitch_limit2 = std::numeric_limits<Scalar>::infinity(),
+             Scalar interval = Scalar(0)) {
     b0_ = gyro_bias;
-    u_prev_.setZero();  // the rate at the rest's end, bias removed
+    interval_ = interval > Scalar(0) ? interval : Scalar(0);
+    bias_pending_ = false;
     stillness_seconds_ = stillness.seconds;
     detector_.start(stillness, acc_mean, acc_var, gyro_energy);
+    detector_.set_glitch_limit(glitch_limit2);
+    open_sub_block();
+    raw_.forget_rate();
+    float_.forget_rate();
+    raw_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
+    float_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
   }
 
-  // Readings further than sqrt(limit2) from the detector's moving mean are glitches.
-  void set_glitch_limit(Scalar limit2) { detector_.set_glitch_limit(limit2); }
   // The bias added to every gyro reading. The blocks and the rest held so far are moved to it
   // (their statistics are of the rate with the bias added: exact for the segments' alpha and
   // beta; a block's path angle keeps the old bias).
+  // It takes effect at the end of the open sub-block (it may be called from the sink).
   void set_gyro_bias(const Vector3<Scalar>& b) {
-    const Vector3<Scalar> db = b - b0_;
-    block_.seg.add_bias(db);
-    delay_.for_each([&db](Block& d) { d.seg.add_bias(db); });
-    rest_.seg.add_bias(db);
-    u_prev_ += db;
-    b0_ = b;
+    pending_bias_ = b;
+    bias_pending_ = true;
   }
 
   // The stream (re)starts with a rest already open (the protocol's initial rest).
@@ -103,68 +120,58 @@ class Segmenter {
     block_ = Block{};
   }
 
-  // One checked sample (the temperature NaN if none; temp_ref what block temperatures are
-  // relative to; moving: the accelerometer says nothing, e.g. saturated). False: a glitch,
-  // nothing changed. Written per axis with the thresholds precomputed (bench_stream counts its
-  // instructions).
+  // One checked sample in the scalar type: step_us after the previous one (0: the stream starts
+  // here), the temperature NaN if none (temp_ref what block temperatures are relative to),
+  // acc_saturated: the accelerometer says nothing. False: a glitch, nothing changed.
   template <class Sink>
   __attribute__((always_inline)) bool add(const ImuSample<Scalar>& s, Scalar temperature,
-                                          Scalar temp_ref, Scalar dt, bool moving, Sink& sink) {
-    // The rate over the interval is the mean of its two end samples (trapezoid, as the RK4
-    // reference interpolates linearly between samples): holding the newer sample instead
-    // differs by ~1e-4 rad per move on the xsens recording, 0.16 sigma of the gyro scale. (A
-    // first sample has dt = 0: whatever u_prev_ holds then adds nothing.)
-    const Vector3<Scalar> u = s.gyro + b0_;
-    const Stillness step = detector_.update(s.acc - a_ref_, u, dt, moving);
-    if (step == Stillness::kGlitch) return false;
-    const bool still = step == Stillness::kStill;
-    last_still_ = still;
-    // Read before close_block() may run: after that call they would be loaded again.
-    const Scalar accel_cue = detector_.sample_accel(), energy_cue = detector_.sample_energy();
-    Vector3<Scalar> u_mid;
-    Scalar path2 = Scalar(0);
-#pragma GCC unroll 3
-    for (int i = 0; i < 3; ++i) {
-      const Scalar mi = Scalar(0.5) * (u(i) + u_prev_(i));
-      u_prev_(i) = u(i);
-      path2 += mi * mi;
-      u_mid(i) = mi;
-    }
-    // Blocks are homogeneous, short, and valid segments: close before a change of state or
-    // a path angle above the segment bound, after the duration or the error bound.
-    // path2 >= 0: the absolute value only tells the compiler so (no errno branch around the
-    // square root, two instructions fewer on an Arm FPU; the value is the same).
-    const Scalar step_path = std::sqrt(std::abs(path2)) * dt;
-    const SegmentBounds<Scalar>& bounds = sink.segment_bounds();
-    if (block_.n > 0 && (still != block_.still || block_.path + step_path > bounds.max_angle))
-      close_block(sink);
-    if (block_.n == 0) {
-      block_.still = still;
-      block_.t_begin = s.t_us;
-      block_.acc_ref = s.acc;
-    }
-    block_.seg.add(u_mid, dt);
-    block_.acc_sum += s.acc - block_.acc_ref;
-    block_.path += step_path;
-    block_.accel_cue += accel_cue;
-    block_.energy_cue += energy_cue;
-    if (temperature == temperature) {
-      block_.temp_sum += temperature - temp_ref;
-      ++block_.temp_n;
-    }
-    ++block_.n;
-    block_.t_end = s.t_us;
-    if (s.t_us - block_.t_begin >= block_us_ ||
-        (block_.path > bounds.error_free_path &&
-         block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > bounds.max_error2))
-      close_block(sink);
+                                          Scalar temp_ref, std::uint32_t step_us,
+                                          bool acc_saturated, Sink& sink) {
+    if (!float_.add(s, temperature, temp_ref, step_us, acc_saturated)) return false;
+    SubBlockStats<Scalar> done;
+    if (float_.take_done(done)) sub_block_done(done, sink);
+    if (float_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
+        s.t_us - float_.t_begin() >= sub_us_ ||
+        s.t_us - block_begin(float_.t_begin()) >= block_us_ || float_.energy_full())
+      close_sub_block(sink);
     return true;
+  }
+
+  // One checked frame of 16-bit counts (integer work only, but once a sub-block); as add().
+  // A stream is either readings or frames: one kind from start() on.
+  template <class Sink>
+  __attribute__((always_inline)) bool add_raw(const RawFrame& f, std::uint32_t step_us,
+                                              bool acc_saturated, Sink& sink) {
+    raw_mode_ = true;
+    if (!raw_.add(f, step_us, acc_saturated)) return false;
+    SubBlockStats<Scalar> done;
+    if (raw_.take_done(done)) sub_block_done(done, sink);
+    if (raw_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
+        f.t_us - raw_.t_begin() >= sub_us_ || f.t_us - block_begin(raw_.t_begin()) >= block_us_ ||
+        raw_.energy_full())
+      close_sub_block(sink);
+    return true;
+  }
+  // A temperature for the frame added last.
+  void add_raw_temperature(Scalar temperature, Scalar temp_ref) {
+    raw_.add_temperature(temperature, temp_ref);
+  }
+
+  // The open sub-block goes through the detector into the blocks now (before a cut, at the end).
+  template <class Sink>
+  void close_sub_block(Sink& sink) {
+    if ((raw_mode_ ? raw_.size() : float_.size()) == 0) return;
+    sub_block_done(raw_mode_ ? raw_.finish() : float_.finish(), sink);
+    open_sub_block();
   }
 
   // The stream is cut (a gap): the current block and the delay line are treated as if motion
   // followed, so the rest before the cut is trimmed like any other; what follows is a move.
   template <class Sink>
   void cut(Sink& sink) {
+    close_sub_block(sink);
+    raw_.forget_rate();
+    float_.forget_rate();
     if (block_.still && block_.n > 0) {
       delay_.add(block_);
       block_.clear();
@@ -176,6 +183,9 @@ class Segmenter {
   // A sensor froze: the samples since it froze may already sit in the rest, so the block, the
   // delay line and the open rest are discarded.
   void discard() {
+    open_sub_block();  // what the open sub-block held goes too
+    raw_.forget_rate();
+    float_.forget_rate();
     block_ = Block{};
     delay_.clear();
     rest_open_ = false;
@@ -185,6 +195,7 @@ class Segmenter {
   // followed). True if a rest was open (and has ended); false if the stream ended in motion.
   template <class Sink>
   bool end(Sink& sink) {
+    close_sub_block(sink);
     if (block_.n > 0) {
       if (block_.still)
         delay_.add(block_);
@@ -220,12 +231,61 @@ class Segmenter {
   bool rest_open() const { return rest_open_; }
   const Block& rest() const { return rest_; }
   // Whether the latest sample was classified still.
-  bool still() const { return last_still_; }
+  bool still() const { return raw_mode_ ? raw_.still() : float_.still(); }
   const StillnessDetector<Scalar>& detector() const { return detector_; }
   const Vector3<Scalar>& gyro_bias() const { return b0_; }
-  const Vector3<Scalar>& acc_ref() const { return a_ref_; }
 
  private:
+  // When the block the open sub-block joins began (a block closes once it lasted block_seconds).
+  std::uint32_t block_begin(std::uint32_t sub_begin) const {
+    return block_.n > 0 ? block_.t_begin : sub_begin;
+  }
+
+  // The accumulators start a sub-block with the detector's limits and the rotation bound. A new
+  // bias moves what is held first.
+  void open_sub_block() {
+    if (bias_pending_) {
+      bias_pending_ = false;
+      const Vector3<Scalar> db = pending_bias_ - b0_;
+      block_.seg.add_bias(db);
+      delay_.for_each([&db](Block& d) { d.seg.add_bias(db); });
+      rest_.seg.add_bias(db);
+      b0_ = pending_bias_;
+    }
+    SubBlockLimits<Scalar> l;
+    detector_.limits(l);
+    l.gyro_bias = b0_;
+    l.energy_max = energy_max_;
+    l.weight = interval_ / (l.seconds + interval_);
+    raw_.start(l);
+    float_.start(l);
+  }
+
+  // A sub-block's sums into the detector and the blocks: close the block before it if it
+  // changes state or would exceed the segment's path bound; after it once the block lasted
+  // block_seconds or its segment reached the error bound.
+  template <class Sink>
+  __attribute__((noinline)) void sub_block_done(const SubBlockStats<Scalar>& s, Sink& sink) {
+    const bool still = detector_.update(s);
+    const SegmentBounds<Scalar>& bounds = sink.segment_bounds();
+    // Rotation bound of the next sub-block: its path duration * rms|u| at most a quarter of a
+    // segment's: sum |u|^2 <= (max_angle / 4)^2 / (n h^2), with n the most samples it holds.
+    const Scalar h = s.mean_interval();
+    if (h > Scalar(0)) {
+      interval_ = h;
+      const Scalar a = Scalar(0.25) * bounds.max_angle / h;
+      energy_max_ = a * a / static_cast<Scalar>(SubBlockSamples);
+    }
+    if (block_.n > 0 && (still != block_.still || block_.path + s.path > bounds.max_angle))
+      close_block(sink);
+    if (block_.n == 0) block_.still = still;
+    block_.add(s);
+    if (block_.t_end - block_.t_begin >= block_us_ ||
+        (block_.path > bounds.error_free_path &&
+         block_.seg.alpha.squaredNorm() * block_.seg.beta.squaredNorm() > bounds.max_error2))
+      close_block(sink);
+  }
+
   void clear() {
     block_ = Block{};
     delay_.clear();
@@ -236,7 +296,7 @@ class Segmenter {
   // Routes the current block (by reference into the ring: no copies on the per-sample path).
   // Out of line: once per block, and inlined its registers would cost every sample.
   template <class Sink>
-  __attribute__((noinline)) void close_block(Sink& sink) {
+  void close_block(Sink& sink) {
     if (block_.n == 0) return;
     if (block_.still) {
       delay_.add(block_);
@@ -258,7 +318,7 @@ class Segmenter {
   template <class Sink>
   void motion_after(const Block& b, Sink& sink) {
     end_rest(true, sink);
-    delay_.drain([this, &sink](const Block& d) { to_move(d, sink); });
+    delay_.drain([&sink](const Block& d) { to_move(d, sink); });
     to_move(b, sink);  // an empty block adds nothing
   }
 
@@ -303,12 +363,17 @@ class Segmenter {
   }
 
   // The per-sample path's members first (single-instruction offsets on Arm).
-  StillnessDetector<Scalar> detector_{};
-  Vector3<Scalar> a_ref_ = Vector3<Scalar>::Zero();   // acceleration sums are relative to this
-  Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();      // gyro bias, added
-  Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();  // previous bias-corrected rate
-  bool last_still_ = true;
+  RawSubBlock<Scalar> raw_{};
+  FloatSubBlock<Scalar> float_{};
+  std::uint32_t sub_us_ = 0;
+  bool raw_mode_ = false;
   bool rest_open_ = false;
+  StillnessDetector<Scalar> detector_{};
+  Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added
+  Vector3<Scalar> pending_bias_ = Vector3<Scalar>::Zero();
+  bool bias_pending_ = false;
+  Scalar energy_max_ = std::numeric_limits<Scalar>::infinity();  // a sub-block's rotation bound
+  Scalar interval_ = Scalar(0);  // the latest sub-block's mean sample interval
   std::uint32_t block_us_ = 0, trim_us_ = 0;
   Block block_{};
   DelayLine<Scalar, DelayBlocks> delay_{};

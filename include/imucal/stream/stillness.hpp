@@ -1,25 +1,25 @@
-// imucal/stream/stillness.hpp: tells still from moving, sample by sample, causally, in a few dozen
-// bytes. The streaming calibrator uses it; anything that needs rests from a raw IMU stream can.
-// Never allocates, throws or blocks. Header-only.
+// imucal/stream/stillness.hpp: tells still from moving, sub-block by sub-block (sub_block.hpp),
+// causally, in a few dozen bytes. Never allocates, throws or blocks. Header-only.
 //
 // Two cues, each an exponential moving average with time constant `seconds` (weighted by the
-// actual step, so the statistics do not change with the sample rate):
+// actual steps, so the statistics do not change with the sample rate; a sub-block of n samples
+// advances it as n samples would, with their mean):
 //   - the accelerometer's variance about its own moving mean, summed over the axes (raw units^2);
 //   - the gyro's energy |u|^2 of the bias-corrected rate u = w + b (raw units^2).
-// A sample is still when both are at or below their thresholds. Each sample's contribution is
+// A sub-block is still when both are at or below their thresholds. Each sample's contribution is
 // clipped at `clip` times the threshold: a lone spike cannot end a rest, real motion still shows
-// within two or three samples.
+// within a sub-block or two.
 //
 // Thresholds follow the data. Each cue keeps the level it has in rests (its floor, learned from
 // every rest), the gyro also the level of the moves (an upper envelope: it rises at once, decays
 // slowly), both from what the caller classified (learn_rest, learn_motion, with the means of the
-// unclipped per-sample cues sample_accel() and sample_energy()). The threshold is `k` times the
-// floor; for the gyro, if higher, a point between the first rest's floor and the move level on a
-// log scale (a fraction `gap` of the way up, at most `reach` times that floor): a rest held in
-// the hand after a quiet start (gyro jitter up to about five times the table-top noise) still
-// counts, and once it has, the floor follows it. Turns (tens to hundreds of deg/s) stay far
-// above. The accelerometer's threshold stays at k times its floor: a slow turn changes little
-// but the direction of gravity, and on the Xsens recording a looser one joins rests across turns.
+// unclipped per-sample cues). The threshold is `k` times the floor; for the gyro, if higher, a
+// point between the first rest's floor and the move level on a log scale (a fraction `gap` of the
+// way up, at most `reach` times that floor): a rest held in the hand after a quiet start (gyro
+// jitter up to about five times the table-top noise) still counts, and once it has, the floor
+// follows it. Turns (tens to hundreds of deg/s) stay far above. The accelerometer's threshold
+// stays at k times its floor: a slow turn changes little but the direction of gravity, and on
+// the Xsens recording a looser one joins rests across turns.
 #pragma once
 
 #include <Eigen/Core>
@@ -28,8 +28,9 @@
 #include <cstring>
 #include <limits>
 
-#include "imucal/models/accel_model.hpp"  // Vector3
-#include "imucal/solve/elementary.hpp"    // log2_of, exp2_of
+#include "imucal/solve/elementary.hpp"  // log2_of, exp2_of
+#include "imucal/stream/sub_block.hpp"
+#include "imucal/types.hpp"
 
 namespace imucal {
 
@@ -48,21 +49,17 @@ struct StillnessSettings {
   }
 };
 
-// What update() made of a sample.
-enum class Stillness : std::uint8_t { kMoving, kStill, kGlitch };
-
 template <typename Scalar>
 class StillnessDetector {
  public:
-  // Starts from a still period: the accelerometer's mean (relative to the caller's reference)
-  // and per-axis variance, and the gyro's energy with its bias removed (0 without a gyro: the
-  // gyro cue is then off).
+  // Starts from a still period: the accelerometer's mean (raw) and per-axis variance, and the
+  // gyro's energy with its bias removed (0 without a gyro: the gyro cue is then off).
   void start(const StillnessSettings<Scalar>& s, const Vector3<Scalar>& acc_mean,
              const Vector3<Scalar>& acc_var, Scalar gyro_energy) {
     settings_ = s;
     mean_ = acc_mean;
-    var_ = acc_var;
-    energy_ = gyro_energy;
+    var0_ = acc_var.sum();
+    energy0_ = gyro_energy;
     rest_acc_ = acc_var.sum();
     first_energy_ = rest_energy_ = gyro_energy;
     move_log_ = -std::numeric_limits<Scalar>::infinity();  // no move yet
@@ -76,46 +73,34 @@ class StillnessDetector {
     update_thresholds();
   }
 
-  // One sample: a = raw accelerometer minus the caller's reference, u = bias-corrected gyro rate,
-  // dt = its interval (0 for the first sample after a gap), accel_unusable = the accelerometer
-  // reading says nothing (saturated): the sample counts as motion. A usable reading whose squared
-  // distance from the moving mean (summed over the axes) exceeds the glitch limit is a glitch:
-  // nothing changes, the caller refuses the sample.
-  Stillness update(const Vector3<Scalar>& a, const Vector3<Scalar>& u, Scalar dt,
-                   bool accel_unusable) {
-    const Scalar d0 = a(0) - mean_(0), d1 = a(1) - mean_(1), d2 = a(2) - mean_(2);
-    const Scalar dev = d0 * d0 + d1 * d1 + d2 * d2;
-    if (dev > glitch2_ && !accel_unusable) return Stillness::kGlitch;
-    const Scalar w = dt / (settings_.seconds + dt);
-    const Scalar wa = accel_unusable ? Scalar(0) : w;
-    const Scalar keep = Scalar(1) - wa;
-    const Scalar d[3] = {d0, d1, d2};
-    Scalar acc = Scalar(0), energy = Scalar(0);
-#pragma GCC unroll 3
-    for (int i = 0; i < 3; ++i) {
-      mean_(i) += wa * d[i];
-      const Scalar d2i = d[i] * d[i];
-      const Scalar v = keep * (var_(i) + wa * (d2i < clip_var_ ? d2i : clip_var_));
-      var_(i) = v;
-      acc += v;
-      energy += u(i) * u(i);
-    }
-    energy_ += w * ((energy < clip_energy_ ? energy : clip_energy_) - energy_);
-    sample_accel_ = accel_unusable ? Scalar(0) : dev;
-    sample_energy_ = energy;
-    const bool still = !accel_unusable && acc <= acc_max_ && (!use_gyro_ || energy_ <= energy_max_);
-    return still ? Stillness::kStill : Stillness::kMoving;
-  }
-
   // Readings further than sqrt(limit2) from the moving mean (squared, summed over the axes) are
   // glitches from now on (the default: none is).
   void set_glitch_limit(Scalar limit2) { glitch2_ = limit2; }
 
-  // The unclipped cues of the latest sample: its squared deviation from the accelerometer's
-  // moving mean (summed over the axes) and its gyro energy. Their means over a rest or a move
-  // are what learn_rest() and learn_motion() take.
-  Scalar sample_accel() const { return sample_accel_; }
-  Scalar sample_energy() const { return sample_energy_; }
+  // What the next sub-block's samples are measured against: the moving mean, the clips of the
+  // two cues, the thresholds, the glitch limit (the caller sets the bias, the rotation bound and
+  // one sample's weight for raw frames).
+  void limits(SubBlockLimits<Scalar>& l) const {
+    l.acc_ref = mean_;
+    l.dev_clip = clip_var_;
+    l.energy_clip = clip_energy_;
+    l.glitch2 = glitch2_;
+    l.accel_threshold = acc_max_;
+    l.energy_threshold = energy_max_;
+    l.use_gyro = use_gyro_;
+    l.seconds = settings_.seconds;
+  }
+  // The moving averages' values at start() (the sub-block accumulators carry them on).
+  Scalar start_accel() const { return var0_; }
+  Scalar start_energy() const { return energy0_; }
+
+  // One sub-block (its samples taken with limits()): the moving mean where its last sample left
+  // it; true if it is still (its samples' state, from the moving averages).
+  bool update(const SubBlockStats<Scalar>& s) {
+    if (s.n_acc > 0) mean_ = s.moving_mean;
+    last_still_ = s.still;
+    return s.still;
+  }
 
   // A rest ended / a move ended: the mean cues over it. The floor follows the rests (a quarter
   // of the way per rest, on a log scale), the gyro's move level the moves (the accelerometer's
@@ -133,6 +118,8 @@ class StillnessDetector {
     update_thresholds();
   }
 
+  // Whether the latest sub-block was still.
+  bool still() const { return last_still_; }
   Scalar accel_threshold() const { return acc_max_; }
   Scalar energy_threshold() const { return energy_max_; }
   Scalar rest_accel() const { return rest_acc_; }
@@ -171,9 +158,8 @@ class StillnessDetector {
   }
 
   StillnessSettings<Scalar> settings_{};
-  Vector3<Scalar> mean_ = Vector3<Scalar>::Zero(), var_ = Vector3<Scalar>::Zero();
-  Scalar energy_ = Scalar(0);
-  Scalar sample_accel_ = Scalar(0), sample_energy_ = Scalar(0);
+  Vector3<Scalar> mean_ = Vector3<Scalar>::Zero();  // raw
+  Scalar var0_ = Scalar(0), energy0_ = Scalar(0);
   Scalar rest_acc_ = Scalar(0), rest_energy_ = Scalar(0);
   Scalar first_energy_ = Scalar(0);
   Scalar move_log_ = Scalar(0), first_log_ = Scalar(0), cap_log_ = Scalar(0);  // log2 levels
@@ -181,6 +167,7 @@ class StillnessDetector {
   Scalar clip_var_ = Scalar(0), clip_energy_ = Scalar(0);
   Scalar glitch2_ = std::numeric_limits<Scalar>::infinity();
   bool use_gyro_ = true;
+  bool last_still_ = true;
 };
 
 }  // namespace imucal

@@ -1,0 +1,489 @@
+// imucal/stream/sub_block.hpp: the per-sample work of the stream layer. Each sample updates the
+// stillness detector's two moving averages (stillness.hpp) and is summed into a sub-block, all
+// still or all moving (a sample whose state differs starts a new one); a sub-block also ends at
+// SubBlockSamples samples, sub_block_seconds, or a rotation bound. The rest of the detector, the
+// blocks and the segment statistics then work once per sub-block on its sums (the strapdown
+// two-rate design: a cheap fast loop, the float work at a lower rate).
+//
+// Two accumulators fill the same SubBlockStats:
+//   RawSubBlock    16-bit counts, integer arithmetic only per sample (the moving averages in
+//                  fixed point): the accelerometer's
+//                  deviations from the detector's reference (their sum exact, their squares
+//                  summed with and without the detector's clip), the gyro's energy, and the
+//                  rotation statistics of the trapezoid rate (alpha, and the second-order terms
+//                  beta and gamma exactly, in 64 and 32 bits) with an integer part of the bias
+//                  removed; the fractional part of the bias is added exactly once per sub-block.
+//   FloatSubBlock  readings in any unit, the same sums in the scalar type (the segment
+//                  statistics sample by sample, with each sample's own interval).
+// The integer path takes the sub-block's mean interval for beta and gamma (second order; alpha
+// and the duration are exact whatever the steps). Never allocates, throws or blocks.
+// Header-only.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "imucal/stream/gyro_segment.hpp"
+#include "imucal/types.hpp"
+
+namespace imucal {
+
+// Most samples in one sub-block: the integer sums' bounds hold for this many 16-bit samples.
+constexpr int kMaxSubBlockSamples = 32;
+
+// What the detector sets for each sub-block.
+template <typename Scalar>
+struct SubBlockLimits {
+  // The moving averages' thresholds (the accelerometer's variance summed over the axes, the
+  // gyro's energy; raw units^2), whether the gyro counts, and one sample's weight for a raw frame
+  // (from the expected interval; readings in the scalar type use their own intervals).
+  Scalar accel_threshold = std::numeric_limits<Scalar>::infinity();
+  Scalar energy_threshold = std::numeric_limits<Scalar>::infinity();
+  bool use_gyro = true;
+  Scalar seconds = Scalar(0.1);  // the averages' time constant
+  Scalar weight = Scalar(0);     // dt / (seconds + dt) at the expected interval
+  Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero();             // accelerometer reference (raw)
+  Vector3<Scalar> gyro_bias = Vector3<Scalar>::Zero();           // added to every gyro reading (b0)
+  Scalar dev_clip = std::numeric_limits<Scalar>::infinity();     // clip of one axis's square
+  Scalar energy_clip = std::numeric_limits<Scalar>::infinity();  // clip of one |u|^2
+  Scalar glitch2 = std::numeric_limits<Scalar>::infinity();      // a deviation beyond: a glitch
+  Scalar energy_max = std::numeric_limits<Scalar>::infinity();   // sum |u|^2 that closes it
+};
+
+// One sub-block, summed: what the detector and the blocks take.
+template <typename Scalar>
+struct SubBlockStats {
+  bool still = true;            // every sample still (else every sample moving)
+  std::uint32_t n = 0;          // samples
+  std::uint32_t n_acc = 0;      // of which with a usable accelerometer reading (not saturated)
+  std::uint32_t intervals = 0;  // sample intervals (a sample that starts the stream has none)
+  std::uint32_t t_begin = 0, t_end = 0;
+  Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero();      // the sums' reference (raw)
+  Vector3<Scalar> moving_mean = Vector3<Scalar>::Zero();  // the detector's, after the last sample
+  // sum of (a - acc_ref) over the usable readings, scaled to all n samples
+  Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
+  Scalar dev = Scalar(0);          // sum |a - limits.acc_ref|^2 over the usable readings
+  Scalar dev_clipped = Scalar(0);  // the same, each axis's square clipped at limits.dev_clip
+  Scalar energy = Scalar(0);       // sum |w + b0|^2
+  Scalar energy_clipped = Scalar(0);
+  GyroSegment<Scalar> seg{};    // of the trapezoid rate u = w + b0 over the intervals
+  Scalar path = Scalar(0);      // a bound on its path angle: duration * rms |u|
+  Scalar temp_sum = Scalar(0);  // temperatures relative to the caller's reference
+  std::uint32_t temp_n = 0;
+
+  Scalar mean_interval() const {
+    return intervals > 0 ? seg.duration / static_cast<Scalar>(intervals) : Scalar(0);
+  }
+};
+
+// A sub-block that ended because a sample's state differed (the sample began the next one): the
+// accumulators keep it here until the segmenter takes it, once.
+template <typename Scalar>
+struct FinishedSubBlock {
+  SubBlockStats<Scalar> stats{};
+  bool full = false;
+
+  bool take(SubBlockStats<Scalar>& out) {
+    if (!full) return false;
+    full = false;
+    out = stats;
+    return true;
+  }
+};
+
+namespace detail {
+
+// x as the scalar type, without the runtime's 64-bit conversion routines.
+template <typename Scalar>
+Scalar to_scalar(std::int64_t x) {
+  const std::int32_t hi = static_cast<std::int32_t>(x >> 32);
+  const std::uint32_t lo = static_cast<std::uint32_t>(x);
+  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
+}
+template <typename Scalar>
+Scalar to_scalar(std::uint64_t x) {
+  const std::uint32_t hi = static_cast<std::uint32_t>(x >> 32);
+  const std::uint32_t lo = static_cast<std::uint32_t>(x);
+  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
+}
+
+// Saturating conversion of a non-negative limit to an unsigned 32-bit one.
+template <typename Scalar>
+std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
+  if (!(x < static_cast<Scalar>(cap))) return cap;  // NaN and infinity too
+  return x > Scalar(0) ? static_cast<std::uint32_t>(x) : 0u;
+}
+
+inline std::int32_t clamp16(std::int32_t x) {
+  return x > 32767 ? 32767 : (x < -32767 ? -32767 : x);
+}
+
+inline std::int32_t round_to_int(double x) {
+  return static_cast<std::int32_t>(x < 0 ? x - 0.5 : x + 0.5);
+}
+inline std::int32_t round_to_int(float x) {
+  return static_cast<std::int32_t>(x < 0 ? x - 0.5f : x + 0.5f);
+}
+
+}  // namespace detail
+
+// Readings in the scalar type.
+template <typename Scalar>
+class FloatSubBlock {
+ public:
+  // Empty, with the limits for this sub-block. The previous sample's rate (the trapezoid's
+  // other end) is kept, moved to the new bias (forget_rate() after start() clears it).
+  void start(const SubBlockLimits<Scalar>& l) {
+    u_prev_ += l.gyro_bias - lim_.gyro_bias;
+    lim_ = l;
+    clear();
+  }
+  // The rate before the next sample is zero (after a rest), or unknown (it starts the stream
+  // again: it has no interval then, its step_us is 0). Call it after start().
+  void forget_rate() { u_prev_.setZero(); }
+  // The moving averages (the accelerometer's variance summed over the axes, the gyro's energy).
+  void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy) {
+    mean_ = mean;
+    va_ = accel;
+    ee_ = energy;
+  }
+
+  std::uint32_t size() const { return s_.n; }
+  std::uint32_t t_begin() const { return s_.t_begin; }
+  bool energy_full() const { return s_.energy > lim_.energy_max; }
+  // The latest sample's state.
+  bool still() const { return still_; }
+  // A sub-block that ended because a sample's state differed: true once, with its sums.
+  bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
+
+  // One sample, step_us after the previous one (0: none before it). temperature NaN: none.
+  // False: a glitch (its accelerometer reading beyond the glitch limit): nothing changed.
+  bool add(const ImuSample<Scalar>& x, Scalar temperature, Scalar temp_ref, std::uint32_t step_us,
+           bool acc_saturated) {
+    // The cue: the deviation from the detector's moving mean.
+    const Scalar d0 = x.acc(0) - mean_(0), d1 = x.acc(1) - mean_(1), d2 = x.acc(2) - mean_(2);
+    const Scalar q0 = d0 * d0, q1 = d1 * d1, q2 = d2 * d2;
+    const Scalar dev = q0 + q1 + q2;
+    if (!acc_saturated && dev > lim_.glitch2) return false;
+    const Scalar dt = static_cast<Scalar>(step_us) * Scalar(1e-6);
+    const Scalar w = dt / (lim_.seconds + dt);
+    const Scalar c = lim_.dev_clip;
+    const Scalar clipped = (q0 < c ? q0 : c) + (q1 < c ? q1 : c) + (q2 < c ? q2 : c);
+    Vector3<Scalar> u, m;
+    Scalar e = Scalar(0);
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      u(i) = x.gyro(i) + lim_.gyro_bias(i);
+      e += u(i) * u(i);
+      m(i) = Scalar(0.5) * (u(i) + u_prev_(i));
+      u_prev_(i) = u(i);
+    }
+    const Scalar e_clipped = e < lim_.energy_clip ? e : lim_.energy_clip;
+    // The moving averages: the accelerometer's keeps (1 - w) of itself and its sample's share
+    // (a saturated reading changes nothing), the gyro's moves w of the way.
+    if (!acc_saturated) {
+      va_ = (Scalar(1) - w) * (va_ + w * clipped);
+      mean_(0) += w * d0;
+      mean_(1) += w * d1;
+      mean_(2) += w * d2;
+    }
+    ee_ += w * (e_clipped - ee_);
+    const bool still = !acc_saturated && va_ <= lim_.accel_threshold &&
+                       (!lim_.use_gyro || ee_ <= lim_.energy_threshold);
+    if (s_.n > 0 && still != s_.still) {
+      done_.stats = finish();
+      done_.full = true;
+      clear();
+    }
+    s_.still = still_ = still;
+    if (!acc_saturated) {
+      s_.acc_sum += x.acc - lim_.acc_ref;
+      s_.dev += dev;
+      s_.dev_clipped += clipped;
+      ++s_.n_acc;
+    }
+    s_.energy += e;
+    s_.energy_clipped += e_clipped;
+    if (step_us != 0) {
+      s_.seg.add(m, dt);
+      ++s_.intervals;
+    }
+    if (!detail::is_nan(temperature)) {
+      s_.temp_sum += temperature - temp_ref;
+      ++s_.temp_n;
+    }
+    if (s_.n == 0) s_.t_begin = x.t_us;
+    s_.t_end = x.t_us;
+    ++s_.n;
+    return true;
+  }
+
+  SubBlockStats<Scalar> finish() const {
+    SubBlockStats<Scalar> s = s_;
+    s.moving_mean = mean_;
+    if (s.n_acc > 0 && s.n_acc < s.n)
+      s.acc_sum *= static_cast<Scalar>(s.n) / static_cast<Scalar>(s.n_acc);
+    s.path = s.n > 0 ? s.seg.duration * std::sqrt(s.energy / static_cast<Scalar>(s.n)) : Scalar(0);
+    return s;
+  }
+
+ private:
+  void clear() {
+    s_ = SubBlockStats<Scalar>{};
+    s_.acc_ref = lim_.acc_ref;
+  }
+
+  SubBlockLimits<Scalar> lim_{};
+  SubBlockStats<Scalar> s_{};
+  FinishedSubBlock<Scalar> done_{};
+  Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();
+  Vector3<Scalar> mean_ = Vector3<Scalar>::Zero();  // the moving mean, sample by sample
+  Scalar va_ = Scalar(0), ee_ = Scalar(0);
+  bool still_ = true;
+};
+
+// 16-bit counts. Every sum is exact in integers: for at most kMaxSubBlockSamples samples the
+// accelerometer's sums fit 32 bits (its squared deviations clamped at 32767 counts a side, a
+// deviation no rest has), the gyro's energy and beta 64 bits, gamma 32 bits. The moving averages
+// are fixed point (raw units^2 x 16), with one sample's weight from the expected interval.
+template <typename Scalar>
+class RawSubBlock {
+ public:
+  void start(const SubBlockLimits<Scalar>& l) {
+    for (int i = 0; i < 3; ++i) {
+      const std::int32_t b = detail::round_to_int(l.gyro_bias(i));
+      u_prev_[i] += b - bias_[i];  // the trapezoid's other end, moved to the new bias
+      bias_[i] = b;
+      ref_[i] = detail::round_to_int(l.acc_ref(i));
+    }
+    // A clip, a glitch limit or a bound beyond what the sums can hold is no clip, limit or bound.
+    dev_clip_q8_ = detail::to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
+    energy_clip_ = detail::to_u32_limit(l.energy_clip, kEnergyClipCap);
+    glitch2_q8_ = detail::to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
+    energy_max_ =
+        l.energy_max < Scalar(1.8e19)
+            ? static_cast<std::uint64_t>(l.energy_max > Scalar(0) ? l.energy_max : Scalar(0))
+            : ~std::uint64_t{0};
+    // The averages in fixed point: the accelerometer's as v = variance / (1 - w), which moves
+    // w of the way to each sample's share as the gyro's does (rescaled when w changes).
+    const Scalar w_old = weight();
+    lim_ = l;
+    const Scalar w = weight();
+    if (w != w_old)
+      va_q8_ = static_cast<std::int32_t>(detail::to_u32_limit(
+          static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
+    weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
+    accel_max_q8_ = static_cast<std::int32_t>(
+        detail::to_u32_limit(Scalar(256) * l.accel_threshold / (Scalar(1) - w), 0x7FFFFFFFu));
+    energy_max_q4_ = static_cast<std::int32_t>(
+        detail::to_u32_limit(Scalar(16) * l.energy_threshold, 0x7FFFFFFFu));
+    use_gyro_ = l.use_gyro;
+    clear();
+  }
+  void forget_rate() { u_prev_[0] = u_prev_[1] = u_prev_[2] = 0; }
+  void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy) {
+    for (int i = 0; i < 3; ++i) mean_q8_[i] = detail::round_to_int(Scalar(256) * mean(i));
+    va_q8_ = static_cast<std::int32_t>(
+        detail::to_u32_limit(Scalar(256) * accel / (Scalar(1) - weight()), 0x7FFFFFFFu));
+    ee_q4_ = static_cast<std::int32_t>(detail::to_u32_limit(Scalar(16) * energy, 0x7FFFFFFFu));
+  }
+
+  std::uint32_t size() const { return n_; }
+  std::uint32_t t_begin() const { return t_begin_; }
+  bool energy_full() const { return energy_ > energy_max_; }
+  bool still() const { return still_; }
+  bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
+
+  // One frame, step_us after the previous one (0: none before it). False: a glitch.
+  __attribute__((always_inline)) bool add(const RawFrame& f, std::uint32_t step_us,
+                                          bool acc_saturated) {
+    // The sums' deviation (from the sub-block's fixed reference) and the cue's (from the moving
+    // mean, in sixteenths of a count: its square in 1/256 count^2).
+    const std::int32_t d0 = f.acc[0] - ref_[0], d1 = f.acc[1] - ref_[1], d2 = f.acc[2] - ref_[2];
+    const std::int32_t m0 = detail::clamp16((f.acc[0] * 256 - mean_q8_[0]) >> 4),
+                       m1 = detail::clamp16((f.acc[1] * 256 - mean_q8_[1]) >> 4),
+                       m2 = detail::clamp16((f.acc[2] * 256 - mean_q8_[2]) >> 4);
+    const std::uint32_t q0 = static_cast<std::uint32_t>(m0 * m0),
+                        q1 = static_cast<std::uint32_t>(m1 * m1),
+                        q2 = static_cast<std::uint32_t>(m2 * m2);
+    const std::uint32_t dev = q0 + q1 + q2;  // 1/256 count^2
+    if (!acc_saturated && dev > glitch2_q8_) return false;
+    const std::uint32_t c = dev_clip_q8_;
+    const std::uint32_t clipped = (q0 < c ? q0 : c) + (q1 < c ? q1 : c) + (q2 < c ? q2 : c);
+    std::int32_t u[3];
+    std::uint32_t e = 0;
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      u[i] = f.gyro[i] + bias_[i];
+      const std::int32_t g = detail::clamp16(u[i]);
+      e += static_cast<std::uint32_t>(g * g);
+    }
+    const std::uint32_t e_clipped = e < energy_clip_ ? e : energy_clip_;
+    // The moving averages, w of the way to each sample's share (the accelerometer's in 1/256
+    // count^2, the gyro's in 1/16), and the moving mean (1/256 count).
+    if (!acc_saturated) {
+      va_q8_ += step(static_cast<std::int32_t>(clipped), va_q8_);
+      mean_q8_[0] += step(f.acc[0] * 256, mean_q8_[0]);
+      mean_q8_[1] += step(f.acc[1] * 256, mean_q8_[1]);
+      mean_q8_[2] += step(f.acc[2] * 256, mean_q8_[2]);
+    }
+    ee_q4_ += step(static_cast<std::int32_t>(e_clipped << 4), ee_q4_);
+    const bool still =
+        !acc_saturated && va_q8_ <= accel_max_q8_ && (!use_gyro_ || ee_q4_ <= energy_max_q4_);
+    if (n_ > 0 && still != sub_still_) {
+      done_.stats = finish();
+      done_.full = true;
+      clear();
+    }
+    sub_still_ = still_ = still;
+    if (!acc_saturated) {
+      s1_[0] += d0;
+      s1_[1] += d1;
+      s1_[2] += d2;
+      dev_ += dev;
+      dev_c_ += clipped;
+      ++n_acc_;
+    }
+    u1_[0] += u[0];
+    u1_[1] += u[1];
+    u1_[2] += u[2];
+    energy_ += e;
+    energy_c_ += e_clipped;
+    if (step_us != 0) {
+      // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the
+      // earlier s of this sub-block: beta += P x s, gamma += P - k s (k the earlier intervals).
+      const std::int32_t s0 = u[0] + u_prev_[0], s1 = u[1] + u_prev_[1], s2 = u[2] + u_prev_[2];
+      const std::int32_t k = static_cast<std::int32_t>(intervals_);
+      x_[0] += static_cast<std::int64_t>(p_[1]) * s2 - static_cast<std::int64_t>(p_[2]) * s1;
+      x_[1] += static_cast<std::int64_t>(p_[2]) * s0 - static_cast<std::int64_t>(p_[0]) * s2;
+      x_[2] += static_cast<std::int64_t>(p_[0]) * s1 - static_cast<std::int64_t>(p_[1]) * s0;
+      y_[0] += p_[0] - k * s0;
+      y_[1] += p_[1] - k * s1;
+      y_[2] += p_[2] - k * s2;
+      p_[0] += s0;
+      p_[1] += s1;
+      p_[2] += s2;
+      // alpha exactly whatever the steps: h0 P + sum s (step - h0), h0 the first step; with
+      // equal steps (a FIFO) the correction is zero and costs a compare.
+      if (intervals_ == 0) {
+        step0_ = step_us;
+      } else if (step_us != step0_) {
+        const std::int64_t ds = static_cast<std::int64_t>(step_us) - step0_;
+        c_[0] += s0 * ds;
+        c_[1] += s1 * ds;
+        c_[2] += s2 * ds;
+      }
+      duration_us_ += step_us;
+      ++intervals_;
+    }
+    u_prev_[0] = u[0];
+    u_prev_[1] = u[1];
+    u_prev_[2] = u[2];
+    if (n_ == 0) t_begin_ = f.t_us;
+    t_end_ = f.t_us;
+    ++n_;
+    return true;
+  }
+
+  // A temperature for the last sample added (NaN: none).
+  void add_temperature(Scalar temperature, Scalar temp_ref) {
+    temp_sum_ += temperature - temp_ref;
+    ++temp_n_;
+  }
+
+  SubBlockStats<Scalar> finish() const {
+    SubBlockStats<Scalar> s;
+    s.still = sub_still_;
+    s.n = n_;
+    s.n_acc = n_acc_;
+    s.intervals = intervals_;
+    s.t_begin = t_begin_;
+    s.t_end = t_end_;
+    const Scalar na = static_cast<Scalar>(n_acc_), n = static_cast<Scalar>(n_);
+    // The gyro's sums are about the rounded bias; the limits' is db away.
+    Vector3<Scalar> db;
+    Scalar db_dot_u1 = Scalar(0);
+    for (int i = 0; i < 3; ++i) {
+      s.acc_ref(i) = static_cast<Scalar>(ref_[i]);
+      s.acc_sum(i) = static_cast<Scalar>(s1_[i]);
+      db(i) = lim_.gyro_bias(i) - static_cast<Scalar>(bias_[i]);
+      db_dot_u1 += db(i) * static_cast<Scalar>(u1_[i]);
+    }
+    if (n_acc_ > 0 && n_acc_ < n_) s.acc_sum *= n / na;
+    s.dev = detail::to_scalar<Scalar>(dev_) * Scalar(1.0 / 256);
+    s.dev_clipped = detail::to_scalar<Scalar>(dev_c_) * Scalar(1.0 / 256);
+    for (int i = 0; i < 3; ++i)
+      s.moving_mean(i) = static_cast<Scalar>(mean_q8_[i]) * Scalar(1.0 / 256);
+    const Scalar energy = detail::to_scalar<Scalar>(energy_);
+    s.energy = energy + Scalar(2) * db_dot_u1 + n * db.squaredNorm();
+    s.energy = s.energy > Scalar(0) ? s.energy : Scalar(0);
+    s.energy_clipped = static_cast<std::uint64_t>(energy_c_) == energy_
+                           ? s.energy
+                           : static_cast<Scalar>(energy_c_);
+    // The rotation statistics of the integer rate u = w + round(b0) at the mean interval h:
+    // alpha = h/2 P, beta = h^2/4 X, gamma = h^2/2 Y; then the rest of the bias, exactly.
+    const Scalar duration = static_cast<Scalar>(duration_us_) * Scalar(1e-6);
+    if (intervals_ > 0) {
+      const Scalar h = duration / static_cast<Scalar>(intervals_);
+      const Scalar b = Scalar(0.25) * h * h, g = Scalar(0.5) * h * h;
+      const Scalar h0 = static_cast<Scalar>(step0_) * Scalar(1e-6);
+      for (int i = 0; i < 3; ++i) {
+        s.seg.alpha(i) = Scalar(0.5) * (h0 * static_cast<Scalar>(p_[i]) +
+                                        Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
+        s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
+        s.seg.gamma(i) = g * static_cast<Scalar>(y_[i]);
+      }
+      s.seg.duration = duration;
+      s.seg.add_bias(db);
+    }
+    s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
+    s.temp_sum = temp_sum_;
+    s.temp_n = temp_n_;
+    return s;
+  }
+
+ private:
+  // Caps that keep the clipped shares (in their fixed-point units) in range.
+  static constexpr std::uint32_t kDevClipCap = 1u << 28;     // per axis, 1/256 count^2
+  static constexpr std::uint32_t kEnergyClipCap = 1u << 26;  // per sample
+
+  Scalar weight() const {
+    return lim_.weight > Scalar(0) && lim_.weight < Scalar(1) ? lim_.weight : Scalar(0);
+  }
+
+  // w (x - y) in fixed point.
+  std::int32_t step(std::int32_t x, std::int32_t y) const {
+    return static_cast<std::int32_t>((static_cast<std::int64_t>(x - y) * weight_q16_) >> 16);
+  }
+
+  void clear() {
+    for (int i = 0; i < 3; ++i) s1_[i] = u1_[i] = p_[i] = y_[i] = 0;
+    x_[0] = x_[1] = x_[2] = 0;
+    c_[0] = c_[1] = c_[2] = 0;
+    step0_ = 0;
+    dev_ = energy_ = 0;
+    dev_c_ = energy_c_ = 0;
+    n_ = n_acc_ = intervals_ = duration_us_ = 0;
+    temp_sum_ = Scalar(0);
+    temp_n_ = 0;
+  }
+
+  SubBlockLimits<Scalar> lim_{};
+  std::int32_t ref_[3] = {0, 0, 0}, bias_[3] = {0, 0, 0}, u_prev_[3] = {0, 0, 0};
+  std::int32_t s1_[3] = {0, 0, 0}, u1_[3] = {0, 0, 0}, p_[3] = {0, 0, 0}, y_[3] = {0, 0, 0};
+  std::int64_t x_[3] = {0, 0, 0}, c_[3] = {0, 0, 0};
+  std::uint32_t step0_ = 0;
+  std::uint64_t dev_ = 0, dev_c_ = 0, energy_ = 0, energy_max_ = 0;  // dev_: 1/256 count^2
+  std::uint32_t energy_c_ = 0, dev_clip_q8_ = 0, energy_clip_ = 0, glitch2_q8_ = 0;
+  std::int32_t mean_q8_[3] = {0, 0, 0};
+  std::int32_t va_q8_ = 0, ee_q4_ = 0, accel_max_q8_ = 0, energy_max_q4_ = 0, weight_q16_ = 0;
+  std::uint32_t n_ = 0, n_acc_ = 0, intervals_ = 0, duration_us_ = 0;
+  std::uint32_t t_begin_ = 0, t_end_ = 0;
+  Scalar temp_sum_ = Scalar(0);
+  std::uint32_t temp_n_ = 0;
+  bool use_gyro_ = true, still_ = true, sub_still_ = true;
+  FinishedSubBlock<Scalar> done_{};
+};
+
+}  // namespace imucal
