@@ -68,6 +68,13 @@ definitions = [(d, None) for d in parts["IMUCAL_PRIVATE_DEFINITIONS"]]
 include_dirs = parts["IMUCAL_INCLUDE_DIRS"] + [eigen_include()]
 program_include_dirs = include_dirs + ["tools/imucal", "sim/include"]
 BUILD = "build/python"  # beside the CMake presets' folders, out of the sources
+# What every object depends on besides its source: setuptools compiles a library again when one
+# of these (or one of its sources) is newer than its objects, and the module when one of these or
+# a library's source is newer than it. A change of CFLAGS is not seen: remove build/python then.
+DEPENDS = sorted({str(p.relative_to(ROOT)) for pattern in (
+    "include/**/*.hpp", "ports/include/**/*.hpp", "lib/*.hpp", "tools/imucal/*.hpp",
+    "sim/include/**/*.hpp") for p in ROOT.glob(pattern)}) + [
+    "setup.py", "cmake/imucal_parts.cmake", "tools/CMakeLists.txt"]
 os.makedirs(BUILD, exist_ok=True)
 
 ParallelCompile("IMUCAL_BUILD_JOBS").install()
@@ -79,13 +86,15 @@ setup(
     # Static libraries linked into the module, in link order (the command's pieces use the
     # library).
     libraries=[
-        ("imucal_cli", {"sources": cli_sources, "macros": definitions,
+        ("imucal_cli", {"sources": cli_sources, "obj_deps": {"": DEPENDS}, "macros": definitions,
                         "include_dirs": list(program_include_dirs), "cflags": CXX_FLAGS}),
-        ("imucal_library", {"sources": library_sources, "macros": definitions,
+        ("imucal_library", {"sources": library_sources, "obj_deps": {"": DEPENDS},
+                            "macros": definitions,
                             "include_dirs": list(include_dirs),
                             "cflags": CXX_FLAGS + parts["IMUCAL_PRIVATE_OPTIONS"]}),
     ],
     ext_modules=[Pybind11Extension("imucal._imucal", ["python/imucal_module.cpp"],
+                                   depends=DEPENDS + library_sources + cli_sources,
                                    include_dirs=list(program_include_dirs),
                                    define_macros=definitions, cxx_std=17)],
     cmdclass={"build_ext": build_ext},
