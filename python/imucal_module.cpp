@@ -1,6 +1,8 @@
-// python/imucal_module.cpp: the `imucal` Python package (pybind11). numpy arrays in, the same
-// calibration as `imucal calibrate` out (its JSON as a dict, its summary, its record), the
-// record codec and the corrector the firmware runs. Host only.
+// python/imucal_module.cpp: `imucal._imucal`, the compiled part of the `imucal` Python package
+// (pybind11; the typed API over it is python/imucal/__init__.py, its stub _imucal.pyi). numpy
+// arrays and the command's options in, what `imucal calibrate` and `imucal noise` print and write
+// out (their JSON, summary, record); the record codec and the corrector the firmware runs. Host
+// only.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -14,6 +16,7 @@
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/gyro_model.hpp"
 #include "imucal/store/record.hpp"
+#include "imucal/version.hpp"
 
 namespace py = pybind11;
 
@@ -36,26 +39,6 @@ Array rows_of(const py::object& x, const char* name, py::ssize_t columns, py::ss
     throw py::value_error(std::string(name) + ": " + std::to_string(a.shape(0)) +
                           " rows, expected " + std::to_string(n) + " as the other arrays");
   return a;
-}
-
-// Keyword options as the command's flags: accel_unit="counts" is --accel-unit counts, a True
-// flag (double=True) is --double; False and None are left out.
-std::vector<std::string> flags(const py::kwargs& options) {
-  std::vector<std::string> args;
-  for (const auto& item : options) {
-    std::string key = py::str(item.first);
-    for (char& c : key)
-      if (c == '_') c = '-';
-    const py::handle v = item.second;
-    if (v.is_none()) continue;
-    if (py::isinstance<py::bool_>(v)) {
-      if (v.cast<bool>()) args.push_back("--" + key);
-      continue;
-    }
-    args.push_back("--" + key);
-    args.push_back(py::str(v));
-  }
-  return args;
 }
 
 // The arrays as the command's reader takes them: read where they are (kept alive by `keep`
@@ -95,10 +78,12 @@ Arrays arrays_of(const py::object& acc, const py::object& gyro, const py::object
   return out;
 }
 
-py::dict calibrate(const py::object& acc, const py::object& gyro, const py::object& t,
-                   const py::object& mag, const py::object& temp, const py::kwargs& options) {
+// `imucal calibrate` over the arrays with the command's options `args`: (its JSON, its summary,
+// the record's bytes or None, whether usable). ValueError where the command exits 2.
+py::tuple calibrate(const py::object& acc, const py::object& gyro, const py::object& t,
+                    const py::object& mag, const py::object& temp,
+                    const std::vector<std::string>& args) {
   const Arrays arrays = arrays_of(acc, gyro, t, mag, temp);
-  const std::vector<std::string> args = flags(options);
   imucal::cli::MemoryRun run;
   int code = 0;
   {
@@ -106,20 +91,17 @@ py::dict calibrate(const py::object& acc, const py::object& gyro, const py::obje
     code = imucal::cli::calibrate_memory(args, arrays.view, run);
   }
   if (code == 2) throw py::value_error(run.error);
-  py::dict result = py::module_::import("json").attr("loads")(run.json);
-  result["summary"] = run.summary;
-  result["record"] = run.record.empty()
-                         ? py::object(py::none())
+  const py::object record =
+      run.record.empty() ? py::object(py::none())
                          : py::object(py::bytes(reinterpret_cast<const char*>(run.record.data()),
                                                 run.record.size()));
-  result["usable"] = code == 0;
-  return result;
+  return py::make_tuple(run.json, run.summary, record, code == 0);
 }
 
-py::dict noise(const py::object& acc, const py::object& gyro, const py::object& t,
-               const py::kwargs& options) {
+// `imucal noise` over the arrays: (its JSON, its summary, Kalibr's imu.yaml text or None).
+py::tuple noise(const py::object& acc, const py::object& gyro, const py::object& t,
+                const std::vector<std::string>& args) {
   const Arrays arrays = arrays_of(acc, gyro, t, py::none(), py::none());
-  const std::vector<std::string> args = flags(options);
   imucal::cli::NoiseRun run;
   int code = 0;
   {
@@ -127,10 +109,9 @@ py::dict noise(const py::object& acc, const py::object& gyro, const py::object& 
     code = imucal::cli::noise_memory(args, arrays.view, run);
   }
   if (code != 0) throw py::value_error(run.error);
-  py::dict result = py::module_::import("json").attr("loads")(run.json);
-  result["summary"] = run.summary;
-  result["kalibr"] = run.kalibr.empty() ? py::object(py::none()) : py::object(py::str(run.kalibr));
-  return result;
+  const py::object kalibr =
+      run.kalibr.empty() ? py::object(py::none()) : py::object(py::str(run.kalibr));
+  return py::make_tuple(run.json, run.summary, kalibr);
 }
 
 imucal::CalibrationRecord decode(const py::bytes& data) {
@@ -219,40 +200,34 @@ class PyCorrector {
 
 }  // namespace
 
-PYBIND11_MODULE(imucal, m) {
+PYBIND11_MODULE(_imucal, m) {
   m.doc() =
-      "imucal: accelerometer, gyroscope and magnetometer calibration from a hand-turned "
-      "recording (the library's streaming calibrator, as the imucal command runs it).";
-  // The parameters' names in the order of decode_record()'s lists: the keys of calibrate()'s
+      "The compiled part of imucal: the command's calibration and noise runs over arrays, the "
+      "record codec and the corrector. Use the typed API of the imucal package.";
+  m.attr("__version__") = IMUCAL_VERSION_STRING;
+  // The parameters' names in the order of decode_record()'s lists: the keys of the JSON's
   // "parameters" dicts.
   py::list accel_names, gyro_names;
   for (const char* name : imucal::kAccelParamNames) accel_names.append(name);
   for (const char* name : imucal::kGyroParamNames) gyro_names.append(name);
   m.attr("ACCEL_PARAMETERS") = py::tuple(accel_names);
   m.attr("GYRO_PARAMETERS") = py::tuple(gyro_names);
-  m.def("calibrate", &calibrate, py::arg("acc") = py::none(), py::arg("gyro") = py::none(),
-        py::kw_only(), py::arg("t") = py::none(), py::arg("mag") = py::none(),
-        py::arg("temp") = py::none(),
-        "calibrate(acc, gyro=None, *, t=None, mag=None, temp=None, **options) -> dict\n\n"
-        "acc, gyro, mag: (N, 3) raw readings; t: (N,) seconds (or rate=HZ); temp: (N,) deg C.\n"
-        "options: the imucal calibrate options, dashes as underscores (accel_unit='counts',\n"
-        "accel_lsb_per_g=4070, gravity=9.81744, rate=100, double=True, ...).\n"
-        "Returns what `imucal calibrate --json` writes, as a dict, with 'summary' (the printed\n"
-        "summary), 'record' (the device record's bytes, or None) and 'usable'. Raises\n"
-        "ValueError where the command exits 2.");
-  m.def("noise", &noise, py::arg("acc") = py::none(), py::arg("gyro") = py::none(), py::kw_only(),
-        py::arg("t") = py::none(),
-        "noise(acc=None, gyro=None, *, t=None, **options) -> dict\n\n"
-        "The Allan deviation and fitted noise terms of a still recording, as `imucal noise\n"
-        "--json` writes them, with 'summary' and 'kalibr' (Kalibr's imu.yaml text, or None\n"
-        "unless the units are SI). Options as for calibrate (gyro_unit, rate, ...).");
+  m.def("calibrate", &calibrate, py::arg("acc"), py::arg("gyro"), py::arg("t"), py::arg("mag"),
+        py::arg("temp"), py::arg("args"),
+        "`imucal calibrate ARGS` over the arrays (each None or (N, 3), t and temp (N,)): "
+        "(JSON text, summary, record bytes or None, usable). ValueError where the command exits "
+        "2.");
+  m.def("noise", &noise, py::arg("acc"), py::arg("gyro"), py::arg("t"), py::arg("args"),
+        "`imucal noise ARGS` over the arrays: (JSON text, summary, Kalibr's imu.yaml text or "
+        "None). ValueError where the command exits 2.");
   m.def("decode_record", &decode_record, py::arg("record"),
-        "decode_record(record: bytes) -> dict: the parts and parameters of a device record.");
+        "The parts and parameters of a device record, as a dict (lists in the models' order). "
+        "ValueError if it is not a valid record.");
   py::class_<PyCorrector>(m, "Corrector",
                           "The firmware's corrector (float), loaded from a device record.")
       .def(py::init<const py::bytes&>(), py::arg("record"))
       .def("apply", &PyCorrector::apply, py::arg("acc"), py::arg("gyro"),
            py::arg("temp") = py::none(),
-           "apply(acc, gyro, temp=None) -> (acc_cal, gyro_cal): raw (N, 3) readings in, m/s^2\n"
-           "and rad/s out; temp (N,) deg C drives the record's temperature model.");
+           "Raw (N, 3) readings in, (acc m/s^2, gyro rad/s) out, each (N, 3); temp (N,) deg C "
+           "drives the record's temperature model.");
 }

@@ -4,10 +4,11 @@
 # under qemu-system-arm and on RV32IMAC under qemu-system-riscv32 (ctest with the emulator). The
 # estimator's long tests run on the host and on one target per architecture, the M4F and RV32;
 # the other targets run the tests of what can differ between targets and the example firmware.
-# The cross builds also prove "no heap" at link time and print sizes; consumers, fuzzing and the
-# instruction counts (M4F and RV32) follow. Each step prints its wall time. It ends with every
-# test that skipped and why (ctest reports a test whose cases all skipped as "Skipped"); where the
-# real recordings are beside the clone, a test skipped for want of one fails the run.
+# The cross builds also prove "no heap" at link time and print sizes; consumers, the Python
+# package as pip installs it, fuzzing and the instruction counts (M4F and RV32) follow. Each step
+# prints its wall time. It ends with every test that skipped and why (ctest reports a test whose
+# cases all skipped as "Skipped"); where the real recordings are beside the clone, a test skipped
+# for want of one fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
@@ -60,6 +61,11 @@ done
 # fetched build), and a top-level configure for it builds the library alone.
 step "consumers"
 tools/test_consumers.sh host:subdirectory,fetchcontent,package,pkgconfig,sysroot m4f:fetchcontent
+
+# The Python package as a user installs it: `pip install --no-build-isolation .` into a fresh
+# virtual environment, its tests (and mypy on its types) against the installed package.
+step "python package: pip install, tests against the installed package"
+IMUCAL_REQUIRE_XSENS=$require_xsens tools/test_python.sh
 
 # The ecosystems' manifests against their formats, the Zephyr module with Zephyr's Kconfig tool
 # and its CMake file, and the Arduino layout's sketch built as the Arduino build does it for a
