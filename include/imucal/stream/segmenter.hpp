@@ -38,7 +38,7 @@ struct SegmenterSettings {
   // A sub-block (the detector's step) lasts at most this long, and holds at most the segmenter's
   // SubBlockSamples samples: the per-sample work is integer sums (or float sums), the float
   // work happens once a sub-block.
-  Scalar sub_block_seconds = Scalar(0.05);
+  Scalar sub_block_seconds = Scalar(0.1);
   Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
   Scalar min_rest_seconds = Scalar(0.6);  // a shorter still spell is part of the move
@@ -97,7 +97,7 @@ class Segmenter {
     stillness_seconds_ = stillness.seconds;
     detector_.start(stillness, acc_mean, acc_var, gyro_energy);
     detector_.set_glitch_limit(glitch_limit2);
-    open_sub_block();
+    open_sub_block(true);
     raw_.forget_rate();
     float_.forget_rate();
     raw_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
@@ -128,8 +128,10 @@ class Segmenter {
                                           Scalar temp_ref, std::uint32_t step_us,
                                           bool acc_saturated, Sink& sink) {
     if (!float_.add(s, temperature, temp_ref, step_us, acc_saturated)) return false;
-    SubBlockStats<Scalar> done;
-    if (float_.take_done(done)) sub_block_done(done, sink);
+    if (const SubBlockStats<Scalar>* done = float_.done()) {
+      sub_block_done(*done, sink);
+      float_.release_done();
+    }
     if (float_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
         s.t_us - float_.t_begin() >= sub_us_ ||
         s.t_us - block_begin(float_.t_begin()) >= block_us_ || float_.energy_full())
@@ -144,8 +146,10 @@ class Segmenter {
                                               bool acc_saturated, Sink& sink) {
     raw_mode_ = true;
     if (!raw_.add(f, step_us, acc_saturated)) return false;
-    SubBlockStats<Scalar> done;
-    if (raw_.take_done(done)) sub_block_done(done, sink);
+    if (const SubBlockStats<Scalar>* done = raw_.done()) {
+      sub_block_done(*done, sink);
+      raw_.release_done();
+    }
     if (raw_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
         f.t_us - raw_.t_begin() >= sub_us_ || f.t_us - block_begin(raw_.t_begin()) >= block_us_ ||
         raw_.energy_full())
@@ -243,7 +247,8 @@ class Segmenter {
 
   // The accumulators start a sub-block with the detector's limits and the rotation bound. A new
   // bias moves what is held first.
-  void open_sub_block() {
+  // both: start both accumulators (the stream's kind is not known yet), else the one in use.
+  void open_sub_block(bool both = false) {
     if (bias_pending_) {
       bias_pending_ = false;
       const Vector3<Scalar> db = pending_bias_ - b0_;
@@ -257,8 +262,8 @@ class Segmenter {
     l.gyro_bias = b0_;
     l.energy_max = energy_max_;
     l.weight = interval_ / (l.seconds + interval_);
-    raw_.start(l);
-    float_.start(l);
+    if (both || raw_mode_) raw_.start(l);
+    if (both || !raw_mode_) float_.start(l);
   }
 
   // A sub-block's sums into the detector and the blocks: close the block before it if it

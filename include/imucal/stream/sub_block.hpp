@@ -90,6 +90,9 @@ struct FinishedSubBlock {
     out = stats;
     return true;
   }
+  // The sums if held (nullptr if not), without a copy; release() once they were used.
+  const SubBlockStats<Scalar>* held() const { return full ? &stats : nullptr; }
+  void release() { full = false; }
 };
 
 namespace detail {
@@ -116,7 +119,7 @@ std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
 }
 
 inline std::int32_t clamp16(std::int32_t x) {
-  return x > 32767 ? 32767 : (x < -32767 ? -32767 : x);
+  return x > 32767 ? 32767 : (x < -32768 ? -32768 : x);
 }
 
 inline std::int32_t round_to_int(double x) {
@@ -156,6 +159,9 @@ class FloatSubBlock {
   bool still() const { return still_; }
   // A sub-block that ended because a sample's state differed: true once, with its sums.
   bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
+  // The finished sub-block if one is held (see FinishedSubBlock::held()).
+  const SubBlockStats<Scalar>* done() const { return done_.held(); }
+  void release_done() { done_.release(); }
 
   // One sample, step_us after the previous one (0: none before it). temperature NaN: none.
   // False: a glitch (its accelerometer reading beyond the glitch limit): nothing changed.
@@ -294,6 +300,9 @@ class RawSubBlock {
   bool energy_full() const { return energy_ > energy_max_; }
   bool still() const { return still_; }
   bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
+  // The finished sub-block if one is held (see FinishedSubBlock::held()).
+  const SubBlockStats<Scalar>* done() const { return done_.held(); }
+  void release_done() { done_.release(); }
 
   // One frame, step_us after the previous one (0: none before it). False: a glitch.
   __attribute__((always_inline)) bool add(const RawFrame& f, std::uint32_t step_us,
