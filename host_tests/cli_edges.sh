@@ -50,5 +50,15 @@ expect "record and 600 bytes more" 1 "more than 512 bytes" "$tool" record "$dir/
 truncate -s 2G "$dir/big.bin"
 expect "record of 2 GB" 1 "more than 512 bytes" sh -c "ulimit -v 200000; \"$tool\" record \"$dir/big.bin\""
 
+# One absurd accelerometer value (1e12) in the initial rest: refused as a glitch, the calibration
+# as without it.
+awk -F, 'NR == 306 { $2 = "1e12" } { print }' OFS=, "$recording" >"$dir/glitch.csv"
+"$tool" calibrate "$dir/glitch.csv" >"$dir/glitch.out" 2>&1
+got=$?
+echo "a glitch in the initial rest: exit $got: $(grep -E 'poses,|stream faults' "$dir/glitch.out" | tr '\n' ' ')"
+[ "$got" -eq 0 ] || fail "a glitch in the initial rest: exit $got, expected 0"
+grep -q "25 poses" "$dir/glitch.out" || fail "a glitch in the initial rest: not 25 poses"
+grep -q "glitches (refused) 1" "$dir/glitch.out" || fail "a glitch in the initial rest: not counted"
+
 [ "$failed" -eq 0 ] && echo "every edge handled"
 exit "$failed"

@@ -3,6 +3,7 @@
 // a 24-hour rest at 1 kHz whose pose mean stays exact in float.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -197,6 +198,56 @@ TEST_F(StreamFaults, AGlitchIsRefusedAndCounted) {
   const Calibration<float>& got = cal.calibration();
   for (int k = 0; k < kAccelParams; ++k)
     EXPECT_LT(std::abs(got.accel.params(k) - clean_params(k)), 0.01f * got.accel.sigma(k)) << k;
+}
+
+// Glitches during the initial rest (the window's noise as the reference): refused and counted,
+// the window and everything after it exactly as without them.
+TEST_F(StreamFaults, AGlitchInTheInitialRestIsRefusedAndCounted) {
+  Calibrator<float>& cal = calibrator();
+  CalibratorSettings<float> s = settings(r());
+  s.accel_min = -1e15f;  // the defaults: only readings too large for the float sums
+  s.accel_max = 1e15f;
+  const double window = static_cast<double>(s.initial_rest_seconds);
+  const double t0 = r().rec.samples[0].t;
+  std::vector<std::size_t> at;
+  for (const double f : {0.1, 0.3, 0.6, 0.95}) at.push_back(at_time(r().rec, t0 + f * window));
+  auto stream_with = [&](bool glitches, Vector3<float>& bias0, Vector3<float>& noise0) {
+    cal.reset(s);
+    std::vector<Status> statuses;
+    bool found = false;
+    for (std::size_t i = 0; i < r().rec.samples.size(); ++i) {
+      const ImuSample<float> x = to_sample<float>(r().rec.samples[i]);
+      if (glitches && std::find(at.begin(), at.end(), i) != at.end()) {
+        EXPECT_EQ(cal.progress().phase, Phase::kInitialRest) << i;
+        ImuSample<float> bad = x;
+        bad.t_us -= 100;  // between two samples
+        bad.acc(static_cast<Eigen::Index>(i % 3)) = (i % 2 ? -1.0f : 1.0f) * 1e12f;
+        statuses.push_back(cal.add(bad));
+      }
+      statuses.push_back(cal.add(x));
+      if (!found && cal.progress().phase != Phase::kInitialRest) {
+        found = true;
+        bias0 = cal.gyro_bias0();
+        noise0 = cal.accel_noise_variance();
+      }
+    }
+    return statuses;
+  };
+  Vector3<float> clean_bias, clean_noise, bias, noise;
+  stream_with(false, clean_bias, clean_noise);
+  const Progress clean_progress = cal.progress();
+  const std::vector<Status> st = stream_with(true, bias, noise);
+  const Progress p = cal.progress();
+  EXPECT_EQ(count(st, Status::kGlitch), 4);
+  EXPECT_EQ(p.stream.glitches, 4u);
+  EXPECT_EQ(p.samples_refused, 4u);
+  // The window held the same samples: the same bias and noise, bit for bit.
+  EXPECT_EQ(bias, clean_bias);
+  EXPECT_EQ(noise, clean_noise);
+  EXPECT_EQ(p.poses, clean_progress.poses);
+  EXPECT_EQ(p.moves, clean_progress.moves);
+  ASSERT_TRUE(succeeded(cal.solve_all()));
+  expect_within_3_sigma(cal.calibration(), r().rec);
 }
 
 TEST_F(StreamFaults, GyroSaturationDropsOnlyThatMove) {

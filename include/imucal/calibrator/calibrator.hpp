@@ -271,6 +271,10 @@ class Calibrator {
     Status result = checks_.check(s, *this, c);
     if (result != Status::kOk && !sample_taken(result)) return result;
     if (phase_ == Phase::kInitialRest) {
+      // A reading far outside the window's noise: refused as after the initial rest (the
+      // previous sample stays the reference).
+      if (!c.acc_saturated && init_.glitch(s.acc, settings_.glitch_sigma))
+        return checks_.refuse_glitch();
       checks_.accept(s);
       // A saturated accelerometer cannot be at rest: the initial rest starts again.
       if (c.acc_saturated) {
@@ -301,12 +305,15 @@ class Calibrator {
     Status result = checks_.check(f, temperature, *this, c);
     if (result != Status::kOk && !sample_taken(result)) return result;
     if (phase_ == Phase::kInitialRest) {
+      const ImuSample<Scalar> s = to_sample(f, c.temperature);
+      if (!c.acc_saturated && init_.glitch(s.acc, settings_.glitch_sigma))
+        return checks_.refuse_glitch();
       checks_.accept(f);
       if (c.acc_saturated) {
         restart_initial_rest();
         return result;
       }
-      return initial_rest_sample(to_sample(f, c.temperature), c.dt, result);
+      return initial_rest_sample(s, c.dt, result);
     }
     if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
     if (!detail::is_nan(c.temperature))

@@ -30,9 +30,10 @@ struct CalibratorSettings : StreamSettings<Scalar> {
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
   StillnessSettings<Scalar> stillness{};  // the detector (stillness.hpp)
   Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
-  // After the initial rest, an accelerometer reading (not at full scale) further than this many
-  // noise sigmas (the initial rest's, its noisiest axis) from the moving mean (the distance over
-  // the three axes) is a glitch: refused and counted.
+  // An accelerometer reading (not at full scale) further than this many noise sigmas (the
+  // initial rest's, its noisiest axis) from the moving mean (the distance over the three axes) is
+  // a glitch: refused and counted. During the initial rest, the sigma and the mean are the rest
+  // window's (initial_rest.hpp).
   // 1e5 sigma is 100 g or more for any MEMS accelerometer's noise: a value no sensor reads (an
   // ADC's own limit is far inside for 16-bit counts).
   Scalar glitch_sigma = Scalar(1e5);

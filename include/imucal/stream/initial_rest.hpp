@@ -39,6 +39,36 @@ class InitialRestWindow {
     return e;
   }
 
+  // Whether an accelerometer reading is a glitch: further than `sigmas` noise sigmas (the
+  // noisiest axis of the last complete quarter, or of the filling one once it holds
+  // kGlitchMinSamples; at least kGlitchFloor of the reading's magnitude) from that quarter's
+  // mean, the distance over the three axes. Such a reading is to be refused, not added. A run of
+  // more than kGlitchMaxRun glitches in a row is no glitch but a change (the hand moved): the
+  // window restarts and the reading is not a glitch. Before any reference: never a glitch.
+  bool glitch(const Vector3<Scalar>& acc, Scalar sigmas) {
+    Vector3<Scalar> mean, var;
+    if (!quarters_.empty()) {
+      const Quarter& q = at(quarters_.size() - 1);
+      mean = q.acc_mean;
+      var = q.acc_var;
+    } else if (cur_.n >= kGlitchMinSamples) {
+      const Quarter q(cur_);
+      mean = q.acc_mean;
+      var = q.acc_var;
+    } else {
+      return false;
+    }
+    const Scalar floor = kGlitchFloor * kGlitchFloor * mean.squaredNorm();
+    const Scalar v = var.maxCoeff() > floor ? var.maxCoeff() : floor;
+    if (!((acc - mean).squaredNorm() > sigmas * sigmas * v)) {
+      glitch_run_ = 0;
+      return false;
+    }
+    if (++glitch_run_ <= kGlitchMaxRun) return true;
+    restart();
+    return false;
+  }
+
   // One sample, dt seconds after the previous one (0 for the first after a restart). kRunning:
   // the window is filling. kOk: it is still, found() gives the result. kSensorFrozen (an axis
   // without noise) or kInitialRestDisturbed: the window is full and not still; it slides on with
@@ -178,8 +208,15 @@ class InitialRestWindow {
     return Status::kOk;
   }
 
+  // The glitch test's reference needs this many samples; its sigma is at least this fraction
+  // of the mean reading's magnitude; more glitches in a row than this are a change.
+  static constexpr std::uint32_t kGlitchMinSamples = 8;
+  static constexpr Scalar kGlitchFloor = Scalar(1e-6);
+  static constexpr std::uint32_t kGlitchMaxRun = 8;
+
   Ring<Quarter, 4> quarters_{};  // the last four complete quarters
   QuarterSums cur_{};            // the one filling
+  std::uint32_t glitch_run_ = 0;
 };
 
 }  // namespace imucal
