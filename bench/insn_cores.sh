@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # What the library costs on each core, as one Markdown table: exact instructions (QEMU's counting
-# plugin, bench/run_insn_bench.sh) of Calibrator::add() per sample, of the whole solve and its
-# largest slice, of Corrector::apply(), and sizeof(Calibrator<float>). Each core's instruction-
-# count programs are built in build/insn/CORE (-O2, assertions off, as firmware would) with that
-# core's toolchain file; the cores without an FPU use soft float.
+# plugin, bench/run_insn_bench.sh) of Calibrator::add() per sample, of add_raw() per 16-bit frame
+# (the recording's frames at 100 Hz, and a 1 kHz stream), of add_fifo() per frame in batches of 25,
+# of the whole solve and its largest slice, of Corrector::apply(), and sizeof(Calibrator<float>).
+# Each core's instruction-count programs are built in build/insn/CORE (-O2, assertions off, as
+# firmware would) with that core's toolchain file; the cores without an FPU use soft float.
 #   bench/insn_cores.sh                 m4f m7 m33 m3 m0plus
 #   bench/insn_cores.sh m3 m0plus rv32  chosen cores (rv32: RV32IMAC, qemu-system-riscv32)
 set -euo pipefail
@@ -15,8 +16,8 @@ declare -A toolchain=([m4f]=cortex-m4f [m7]=cortex-m7 [m33]=cortex-m33 [m3]=cort
 declare -A label=([m4f]="Cortex-M4F" [m7]="Cortex-M7 (FPU: single)" [m33]="Cortex-M33 (FPU)"
                   [m3]="Cortex-M3 (no FPU: soft float)" [m0plus]="Cortex-M0+ (ARMv6-M, soft float)"
                   [rv32]="RV32IMAC (no FPU: soft float)")
-echo "| core | add() per sample: at rest / moving / initial rest (largest call) | the whole solve (largest slice) | Corrector::apply() | sizeof(Calibrator<float>) |"
-echo "| --- | --- | --- | ---: | ---: |"
+echo "| core | add() per sample: at rest / moving / initial rest (largest call) | add_raw() per frame: at rest / moving, 100 Hz / after the initial rest, 1 kHz | add_fifo() per frame (batches of 25) | the whole solve (largest slice) | Corrector::apply() | sizeof(Calibrator<float>) |"
+echo "| --- | --- | --- | ---: | --- | ---: | ---: |"
 for core in "${cores[@]}"; do
   dir=build/insn/$core
   cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -38,5 +39,8 @@ for core in "${cores[@]}"; do
   slice=$(printf '%s\n' "$table" | awk -F'|' '$2 ~ /^ solve/ { gsub(/ /, "", $5); if ($5 + 0 > m) m = $5 + 0 } END { print m }')
   apply=$(row "Corrector::apply(): accelerometer and gyro" 4)
   size=$(printf '%s\n' "$table" | sed -n 's/.*converged.*sizeof \([0-9]*\).*/\1/p')
-  echo "| ${label[$core]} | $rest / $moving / $init ($largest) | $solve ($slice) | $apply | $size |"
+  raw_rest=$(row "add_raw(): still" 4) raw_moving=$(row "add_raw(): moving" 4)
+  raw_fast=$(row "add_raw() at 1 kHz: after" 4)
+  fifo=$(printf '%s\n' "$table" | awk -F'|' '$2 == " add_fifo(): 25 frames " { printf "%d", ($4 + 12) / 25 }')
+  echo "| ${label[$core]} | $rest / $moving / $init ($largest) | $raw_rest / $raw_moving / $raw_fast | $fifo | $solve ($slice) | $apply | $size |"
 done

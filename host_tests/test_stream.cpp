@@ -465,10 +465,10 @@ TEST(StreamChecks, EveryBadSampleHasItsStatusCountAndCut) {
   };
   ImuSample<float> s = src.next();
   EXPECT_EQ(take(s), Status::kOk);
-  EXPECT_EQ(c.dt, 0.0f);  // the stream starts here
+  EXPECT_EQ(c.dt(), 0.0f);  // the stream starts here
   s = src.next();
   EXPECT_EQ(take(s), Status::kOk);
-  EXPECT_NEAR(static_cast<double>(c.dt), 0.01, 1e-9);
+  EXPECT_NEAR(static_cast<double>(c.dt()), 0.01, 1e-9);
   ImuSample<float> bad = src.next();
   bad.acc(1) = std::numeric_limits<float>::quiet_NaN();
   EXPECT_EQ(take(bad), Status::kNonFiniteInput);
@@ -490,7 +490,7 @@ TEST(StreamChecks, EveryBadSampleHasItsStatusCountAndCut) {
   EXPECT_EQ(sink.cuts, 1);
   s = src.next();
   EXPECT_EQ(take(s), Status::kOk);
-  EXPECT_EQ(c.dt, 0.0f);  // nothing integrates across the saturated one
+  EXPECT_EQ(c.dt(), 0.0f);  // nothing integrates across the saturated one
   s = src.next();
   s.t_us += 200000u;  // a 0.2 s hole
   src.t_us = s.t_us;

@@ -281,7 +281,7 @@ class Calibrator {
         restart_initial_rest();
         return result;
       }
-      return initial_rest_sample(in, c.dt, result);
+      return initial_rest_sample(in, c.dt(), result);
     }
     if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.step_us, c.acc_saturated,
                         *this)) {
@@ -313,7 +313,7 @@ class Calibrator {
         restart_initial_rest();
         return result;
       }
-      return initial_rest_sample(s, c.dt, result);
+      return initial_rest_sample(s, c.dt(), result);
     }
     if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
     if (!detail::is_nan(c.temperature))

@@ -231,9 +231,10 @@ constexpr bool sample_taken(Status s) {
 template <typename Scalar>
 struct CheckedSample {
   std::uint32_t step_us = 0;       // since the previous sample taken (0: the stream starts here)
-  Scalar dt = Scalar(0);           // the same in seconds
   Scalar temperature = Scalar(0);  // deg C; NaN: none, or ignored as implausible
   bool acc_saturated = false;      // the accelerometer at full scale: the sample says no rest
+
+  Scalar dt() const { return static_cast<Scalar>(step_us) * Scalar(1e-6); }  // step_us in s
 };
 
 // The front end. check() passes or refuses each sample and tells the consumer (a sink with two
@@ -253,6 +254,7 @@ class StreamChecks {
     temperature_min_ = s.temperature_min_c;
     temperature_max_ = s.temperature_max_c;
     nominal_rate_ = s.nominal_rate_hz;
+    check_rate_ = s.nominal_rate_hz > Scalar(0);
     rate_tolerance_ = s.rate_tolerance;
     clock_reset_samples_ = s.clock_reset_samples;
     acc_scale_.set(s.accel_min, s.accel_max);
@@ -408,14 +410,13 @@ class StreamChecks {
       ++counts_.accel_saturated;
       result = last_event_ = Status::kAccelSaturated;
     }
-    if (nominal_rate_ > Scalar(0) &&
+    if (check_rate_ &&
         rate_.off(static_cast<std::uint32_t>(step), nominal_rate_, rate_tolerance_)) {
       ++counts_.rate_off;
       last_event_ = Status::kSampleRateOff;
       if (result == Status::kOk) result = Status::kSampleRateOff;
     }
     out.step_us = static_cast<std::uint32_t>(step);
-    out.dt = static_cast<Scalar>(step) * Scalar(1e-6);
     out.temperature = temperature;
     out.acc_saturated = acc_saturated;
     return result;
@@ -501,6 +502,7 @@ class StreamChecks {
   std::int32_t acc_lo_ = -65536, acc_hi_ = 65536, gyro_lo_ = -65536, gyro_hi_ = 65536;
   Scalar temperature_min_ = Scalar(0), temperature_max_ = Scalar(0);
   Scalar nominal_rate_ = Scalar(0), rate_tolerance_ = Scalar(0);
+  bool check_rate_ = false;  // nominal_rate_ > 0 (a flag: no float compare per sample)
   int clock_reset_samples_ = 3;
   ClockResetWatch clock_{};
   RateWatch rate_{};

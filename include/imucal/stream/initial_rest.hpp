@@ -3,7 +3,7 @@
 // quarter means agree within the noise and the quarter variances alike, the window is still. It
 // gives what the calibrator starts from: the gyro bias, the per-axis noise of both sensors (the
 // first stillness thresholds), the sample period and the acceleration sum that opens the first
-// rest. Header-only, no allocation, 352 bytes of state in float.
+// rest. Header-only, no allocation.
 #pragma once
 
 #include <cstdint>
@@ -40,27 +40,14 @@ class InitialRestWindow {
   }
 
   // Whether an accelerometer reading is a glitch: further than `sigmas` noise sigmas (the
-  // noisiest axis of the last complete quarter, or of the filling one once it holds
-  // kGlitchMinSamples; at least kGlitchFloor of the reading's magnitude) from that quarter's
-  // mean, the distance over the three axes. Such a reading is to be refused, not added. A run of
-  // more than kGlitchMaxRun glitches in a row is no glitch but a change (the hand moved): the
-  // window restarts and the reading is not a glitch. Before any reference: never a glitch.
+  // noisiest axis of the last complete quarter, or of the first kGlitchMinSamples samples before
+  // one is complete; at least kGlitchFloor of the mean reading's magnitude) from their mean, the
+  // distance over the three axes. Such a reading is to be refused, not added. A run of more than
+  // kGlitchMaxRun glitches in a row is no glitch but a change (the hand moved): the window restarts
+  // and the reading is not a glitch. Before any reference: never a glitch.
   bool glitch(const Vector3<Scalar>& acc, Scalar sigmas) {
-    Vector3<Scalar> mean, var;
-    if (!quarters_.empty()) {
-      const Quarter& q = at(quarters_.size() - 1);
-      mean = q.acc_mean;
-      var = q.acc_var;
-    } else if (cur_.n >= kGlitchMinSamples) {
-      const Quarter q(cur_);
-      mean = q.acc_mean;
-      var = q.acc_var;
-    } else {
-      return false;
-    }
-    const Scalar floor = kGlitchFloor * kGlitchFloor * mean.squaredNorm();
-    const Scalar v = var.maxCoeff() > floor ? var.maxCoeff() : floor;
-    if (!((acc - mean).squaredNorm() > sigmas * sigmas * v)) {
+    if (!has_ref_) return false;
+    if (!((acc - ref_mean_).squaredNorm() > sigmas * sigmas * ref_var_)) {
       glitch_run_ = 0;
       return false;
     }
@@ -90,6 +77,7 @@ class InitialRestWindow {
     c.gyro_sq += g.cwiseProduct(g);
     ++c.n;
     c.t_end = t_us;
+    if (quarters_.empty() && c.n == kGlitchMinSamples) set_glitch_reference(Quarter(c));
     if (c.elapsed < Scalar(0.25) * seconds) return Status::kRunning;
     return close_quarter(use_gyro);
   }
@@ -152,9 +140,20 @@ class InitialRestWindow {
 
   const Quarter& at(int k) const { return quarters_.at(k); }
 
+  // The glitch test's reference: a quarter's mean and its noisiest axis's variance (at least
+  // kGlitchFloor of the mean's magnitude, squared).
+  void set_glitch_reference(const Quarter& q) {
+    const Scalar floor = kGlitchFloor * kGlitchFloor * q.acc_mean.squaredNorm();
+    const Scalar v = q.acc_var.maxCoeff();
+    ref_mean_ = q.acc_mean;
+    ref_var_ = v > floor ? v : floor;
+    has_ref_ = true;
+  }
+
   // The quarter is complete: into the ring (the oldest slides out), then the window's test.
   Status close_quarter(bool use_gyro) {
     quarters_.push(Quarter(cur_));
+    set_glitch_reference(at(quarters_.size() - 1));
     cur_ = QuarterSums{};
     if (!quarters_.full()) return Status::kRunning;
     return test(use_gyro);
@@ -214,8 +213,11 @@ class InitialRestWindow {
   static constexpr Scalar kGlitchFloor = Scalar(1e-6);
   static constexpr std::uint32_t kGlitchMaxRun = 8;
 
-  Ring<Quarter, 4> quarters_{};  // the last four complete quarters
-  QuarterSums cur_{};            // the one filling
+  Ring<Quarter, 4> quarters_{};                         // the last four complete quarters
+  QuarterSums cur_{};                                   // the one filling
+  Vector3<Scalar> ref_mean_ = Vector3<Scalar>::Zero();  // the glitch test's reference
+  Scalar ref_var_ = Scalar(0);
+  bool has_ref_ = false;
   std::uint32_t glitch_run_ = 0;
 };
 

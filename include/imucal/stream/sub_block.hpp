@@ -118,6 +118,36 @@ std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
   return x > Scalar(0) ? static_cast<std::uint32_t>(x) : 0u;
 }
 
+// Whether a 32 x 32 -> 64-bit multiply is a call into the runtime (ARMv6-M, ARMv8-M Baseline:
+// no long multiply instruction). There, products of operands that fit 16 bits take 32 bits.
+#if defined(__ARM_ARCH_6M__) || defined(__ARM_ARCH_8M_BASE__)
+constexpr bool kLongMultiplyIsACall = true;
+#else
+constexpr bool kLongMultiplyIsACall = false;
+#endif
+
+inline bool fits16(std::int32_t x) { return x >= -32768 && x <= 32767; }
+
+// a * b - c * d, exact (in 32 bits when the operands allow and a long multiply is a call).
+inline std::int64_t cross_term(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) {
+  if (kLongMultiplyIsACall && fits16(a) && fits16(b) && fits16(c) && fits16(d))
+    return static_cast<std::int64_t>(a * b) - static_cast<std::int64_t>(c * d);
+  return static_cast<std::int64_t>(a) * b - static_cast<std::int64_t>(c) * d;
+}
+
+// x as an unsigned 64-bit limit (NaN and values past 2^64: the largest), without the runtime's
+// float-to-64-bit conversion (a double-precision routine on cores without an FPU).
+template <typename Scalar>
+std::uint64_t to_u64_limit(Scalar x) {
+  if (!(x < Scalar(1.8e19))) return ~std::uint64_t{0};
+  if (!(x > Scalar(0))) return 0;
+  const Scalar two32 = Scalar(4294967296.0);
+  const std::uint32_t hi = static_cast<std::uint32_t>(x / two32);
+  const Scalar rest = x - static_cast<Scalar>(hi) * two32;
+  const std::uint32_t lo = rest > Scalar(0) ? static_cast<std::uint32_t>(rest) : 0u;
+  return (static_cast<std::uint64_t>(hi) << 32) | lo;
+}
+
 inline std::int32_t clamp16(std::int32_t x) {
   return x > 32767 ? 32767 : (x < -32768 ? -32768 : x);
 }
@@ -267,10 +297,7 @@ class RawSubBlock {
     dev_clip_q8_ = detail::to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
     energy_clip_ = detail::to_u32_limit(l.energy_clip, kEnergyClipCap);
     glitch2_q8_ = detail::to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
-    energy_max_ =
-        l.energy_max < Scalar(1.8e19)
-            ? static_cast<std::uint64_t>(l.energy_max > Scalar(0) ? l.energy_max : Scalar(0))
-            : ~std::uint64_t{0};
+    energy_max_ = detail::to_u64_limit(l.energy_max);
     // The averages in fixed point: the accelerometer's as v = variance / (1 - w), which moves
     // w of the way to each sample's share as the gyro's does (rescaled when w changes).
     const Scalar w_old = weight();
@@ -364,9 +391,9 @@ class RawSubBlock {
       // earlier s of this sub-block: beta += P x s, gamma += P - k s (k the earlier intervals).
       const std::int32_t s0 = u[0] + u_prev_[0], s1 = u[1] + u_prev_[1], s2 = u[2] + u_prev_[2];
       const std::int32_t k = static_cast<std::int32_t>(intervals_);
-      x_[0] += static_cast<std::int64_t>(p_[1]) * s2 - static_cast<std::int64_t>(p_[2]) * s1;
-      x_[1] += static_cast<std::int64_t>(p_[2]) * s0 - static_cast<std::int64_t>(p_[0]) * s2;
-      x_[2] += static_cast<std::int64_t>(p_[0]) * s1 - static_cast<std::int64_t>(p_[1]) * s0;
+      x_[0] += detail::cross_term(p_[1], s2, p_[2], s1);
+      x_[1] += detail::cross_term(p_[2], s0, p_[0], s2);
+      x_[2] += detail::cross_term(p_[0], s1, p_[1], s0);
       y_[0] += p_[0] - k * s0;
       y_[1] += p_[1] - k * s1;
       y_[2] += p_[2] - k * s2;
@@ -463,7 +490,10 @@ class RawSubBlock {
 
   // w (x - y) in fixed point.
   std::int32_t step(std::int32_t x, std::int32_t y) const {
-    return static_cast<std::int32_t>((static_cast<std::int64_t>(x - y) * weight_q16_) >> 16);
+    const std::int32_t d = x - y;
+    // weight_q16_ <= 65536: a 16-bit d keeps the product within 32 bits.
+    if (detail::kLongMultiplyIsACall && detail::fits16(d)) return (d * weight_q16_) >> 16;
+    return static_cast<std::int32_t>((static_cast<std::int64_t>(d) * weight_q16_) >> 16);
   }
 
   void clear() {
