@@ -589,8 +589,17 @@ Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
 }  // namespace
 
 CalibrationRecord::CalibrationRecord() = default;
-CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) = default;
-CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) = default;
+// A record is its bytes: standard layout, every member a number, an enum or a fixed-size Eigen
+// matrix of floats (the codec's tables read and write them through their offsets), so a copy is
+// one memcpy instead of member-wise code for some 160 fields.
+CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) {
+  std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), sizeof other);
+}
+CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) {
+  if (this != &other)
+    std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), sizeof other);
+  return *this;
+}
 
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc) {
   // CRC of each nibble value, reflected polynomial 0xEDB88320.
