@@ -68,13 +68,7 @@ double expect_within_sigma(const V& small, const V& small_sigma, const V& big, c
 }
 
 TEST(SmallCalibrator, XsensRecordingAsTheDefaultCalibrator) {
-  const std::string dir = test::find_xsens_dir();
-  if (dir.empty()) {
-#ifdef IMUCAL_REQUIRE_XSENS
-    FAIL() << "xsens recording required but not found";
-#endif
-    GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)";
-  }
+  IMUCAL_XSENS_DIR_OR_SKIP(dir);
   CalibratorSettings<float> set = test::xsens_calibrator_settings();
   set.accel_zero_hint = Vector3<float>::Zero();  // signed counts
   static SmallCalibrator small;                  // static: not on the small targets' stack
