@@ -1,10 +1,13 @@
 // The calibration record's encoder and validating decoder (format:
-// include/imucal/store/record.hpp).
+// include/imucal/store/record.hpp). One table of each section's fields (kInfoFields, ...) serves
+// both: the decoder reads and checks through it, the encoder writes.
 #include "imucal/store/record.hpp"
 
 #include <Eigen/LU>  // determinant()
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <type_traits>
 
 #include "little_endian.hpp"
 
@@ -38,31 +41,302 @@ static_assert(kRecordHeaderBytes + 4 + kInfoBytes + 4 + kAccelBytes + 4 + kGyroB
                   kRecordMaxBytes,
               "every part fits the largest record");
 
-// Plausible bounds: an IMU's operating temperatures, any sample rate a MEMS part offers.
-constexpr float kMinTemperature = -100.0f, kMaxTemperature = 200.0f;
-constexpr float kMaxSampleRate = 1.0e6f;
+// Each known section: the least payload length its fields take, and the part it belongs to (the
+// info section: none).
+struct KnownSection {
+  std::uint16_t min_length;
+  std::uint16_t part;
+};
+constexpr KnownSection kKnownSections[kLastKnownTag + 1] = {
+    {0, 0},
+    {kInfoBytes, 0},
+    {kAccelBytes, kRecordAccel},
+    {kGyroBytes, kRecordGyro},
+    {kMagBytes, kRecordMag},
+    {kTemperatureHeadBytes, kRecordTemperature}};
+
+// ---- The fields of each section, in the order of their bytes (record.hpp) --------------------
+// One table per section serves both directions: the decoder reads and checks each field into the
+// section's struct, the encoder writes it from there.
+
+// What a field is. The first kinds are reals (IEEE-754 binary32), each within its range
+// (kRanges): NaN and the infinities are within none.
+enum Kind : std::uint8_t {
+  kFinite,       // any finite value
+  kNonNegative,  // sigmas, residuals, the fit error
+  kPositive,     // accelerometer scales, the field strength
+  kNonZero,      // gyro scales (negative: the axis points the other way)
+  kZeroOnly,     // (kNote of an unknown temperature)
+  kCelsius,      // temperatures: -100..200 deg C (plausibility.hpp)
+  kRate,         // the sample rate: 0..1e6 Hz (plausibility.hpp)
+  kFraction,     // the magnetometer's coverage: 0..1
+  kDip,          // the field's inclination: -90..90 degrees
+  kNote,  // the temperature at calibration: kCelsius if the flag before says it is known, else 0
+  kTop,   // kCelsius, and not below the real before it (the top of a range)
+  kLastReal = kTop,
+  // Not reals.
+  kSoftIron,    // a 3x3 row by row (column-major in memory), finite, det > 0: a soft iron that
+                // mirrors space (or collapses it) is not a calibration
+  kCount,       // u16 into an int, at least n
+  kQuality,     // u8 into a Quality, at most kGood
+  kFlag,        // u8 into a bool: bit 0, no other
+  kAligned,     // u8, bit 0 (no other): the magnetometer's alignment status, kOk or kNotStarted
+  kModelFlags,  // u8 of the temperature model (the struct): bits 0 and 1 (kRecordAccel,
+                // kRecordGyro) say whose coefficients are usable, one at least in the record
+  kReserved,    // n bytes of zeros
+};
+struct Range {
+  float lo, hi;
+  bool nonzero;
+};
+constexpr float kFloatMax = std::numeric_limits<float>::max();
+constexpr Range kRanges[] = {{-kFloatMax, kFloatMax, false},
+                             {0.0f, kFloatMax, false},
+                             {0.0f, kFloatMax, true},
+                             {-kFloatMax, kFloatMax, true},
+                             {0.0f, 0.0f, false},
+                             {static_cast<float>(bounds::kMinTemperatureC),
+                              static_cast<float>(bounds::kMaxTemperatureC), false},
+                             {0.0f, static_cast<float>(bounds::kMaxSampleRateHz), false},
+                             {0.0f, 1.0f, false},
+                             {-90.0f, 90.0f, false}};
+static_assert(sizeof kRanges / sizeof kRanges[0] == kDip + 1, "a range for every plain real");
+
+bool meets(float v, Kind k) {
+  const Range& r = kRanges[k];
+  return v >= r.lo && v <= r.hi && !(r.nonzero && v == 0.0f);
+}
+bool all_meet(const float* v, int n, Kind k) {
+  for (int i = 0; i < n; ++i)
+    if (!meets(v[i], k)) return false;
+  return true;
+}
+
+// A field: its kind, n (reals: how many, in a row in memory; kCount: the least; kReserved:
+// bytes) and where its value lives: `at` bytes into the section's struct.
+struct Field {
+  std::uint16_t at;
+  Kind kind;
+  std::uint8_t n;
+};
+
+// The structs are read and written through offsetof: standard layout, and an Eigen vector is its
+// floats and nothing else.
+static_assert(std::is_standard_layout<CalibrationRecord>::value, "offsetof");
+static_assert(sizeof(AccelVector<float>) == kAccelParams * sizeof(float) &&
+                  sizeof(GyroVector<float>) == kGyroParams * sizeof(float) &&
+                  sizeof(Matrix3<float>) == 9 * sizeof(float) &&
+                  sizeof(MagSymVector<float>) == kMagSymEntries * sizeof(float),
+              "an Eigen vector's floats are the vector");
+// The offset of the k-th float of a member that starts `member` bytes into its struct.
+constexpr std::uint16_t at(std::size_t member, int k = 0) {
+  return static_cast<std::uint16_t>(member + sizeof(float) * static_cast<std::size_t>(k));
+}
+
+using Info = Calibration<float>;
+constexpr Field kInfoFields[] = {{at(offsetof(Info, quality)), kQuality, 1},
+                                 {at(offsetof(Info, has_temperature)), kFlag, 1},
+                                 {0, kReserved, 2},
+                                 {at(offsetof(Info, temperature_c)), kNote, 1},
+                                 {at(offsetof(Info, sample_rate_hz)), kRate, 1}};
+
+using Accel = AccelCalibration<float>;
+static_assert(kAlphaYz == 0 && kScaleX == 3 && kBiasX == 6, "misalignments, scales, biases");
+constexpr Field kAccelFields[] = {{at(offsetof(Accel, poses)), kCount, kAccelMinPoses},
+                                  {0, kReserved, 2},
+                                  {at(offsetof(Accel, params)), kFinite, 3},
+                                  {at(offsetof(Accel, params), kScaleX), kPositive, 3},
+                                  {at(offsetof(Accel, params), kBiasX), kFinite, 3},
+                                  {at(offsetof(Accel, sigma)), kNonNegative, kAccelParams},
+                                  {at(offsetof(Accel, residual_rms)), kNonNegative, 1}};
+
+using Gyro = GyroCalibration<float>;
+static_assert(kGammaYz == 0 && kGyroScaleX == 6 && kGyroBiasX == 9,
+              "misalignments, scales, biases");
+constexpr Field kGyroFields[] = {{at(offsetof(Gyro, moves)), kCount, 1},
+                                 {at(offsetof(Gyro, bias_refined)), kFlag, 1},
+                                 {0, kReserved, 1},
+                                 {at(offsetof(Gyro, params)), kFinite, 6},
+                                 {at(offsetof(Gyro, params), kGyroScaleX), kNonZero, 3},
+                                 {at(offsetof(Gyro, params), kGyroBiasX), kFinite, 3},
+                                 {at(offsetof(Gyro, sigma)), kNonNegative, kGyroParams},
+                                 {at(offsetof(Gyro, residual_rms)), kNonNegative, 1}};
+
+using Mag = MagCalibration<float>;
+constexpr Field kMagFields[] = {{at(offsetof(Mag, samples)), kCount, 1},
+                                {at(offsetof(Mag, quality)), kQuality, 1},
+                                {at(offsetof(Mag, alignment_status)), kAligned, 1},
+                                {at(offsetof(Mag, soft_iron)), kSoftIron, 9},
+                                {at(offsetof(Mag, hard_iron)), kFinite, 3},
+                                {at(offsetof(Mag, hard_iron_sigma)), kNonNegative, 3},
+                                {at(offsetof(Mag, soft_iron_sigma)), kNonNegative, kMagSymEntries},
+                                {at(offsetof(Mag, field_ut)), kPositive, 1},
+                                {at(offsetof(Mag, fit_error_pct)), kNonNegative, 1},
+                                {at(offsetof(Mag, coverage)), kFraction, 1},
+                                {at(offsetof(Mag, dip_deg)), kDip, 1},
+                                {at(offsetof(Mag, dip_sigma_deg)), kNonNegative, 1}};
+
+// The temperature model after its order (which sets the payload's length), then each sensor's
+// coefficients (b2 and its sigma only in a quadratic model): those of a sensor the record does
+// not hold are read and left out; an unusable sensor's are zeros.
+using Model = TemperatureModel<float>;
+static_assert(kRecordAccel == 1u && kRecordGyro == 2u, "the temperature flags' bits");
+constexpr Field kModelFields[] = {{0, kModelFlags, 1},
+                                  {at(offsetof(Model, rests)), kCount, 1},
+                                  {at(offsetof(Model, reference_c)), kCelsius, 1},
+                                  {at(offsetof(Model, min_c)), kCelsius, 1},
+                                  {at(offsetof(Model, max_c)), kTop, 1}};
+using Bias = TemperatureBias<float>;
+constexpr Field kLinearBiasFields[] = {{at(offsetof(Bias, b0)), kFinite, 3},
+                                       {at(offsetof(Bias, b1)), kFinite, 3},
+                                       {at(offsetof(Bias, b0_sigma)), kNonNegative, 3},
+                                       {at(offsetof(Bias, b1_sigma)), kNonNegative, 3}};
+constexpr Field kQuadraticBiasFields[] = {{at(offsetof(Bias, b0)), kFinite, 3},
+                                          {at(offsetof(Bias, b1)), kFinite, 3},
+                                          {at(offsetof(Bias, b2)), kFinite, 3},
+                                          {at(offsetof(Bias, b0_sigma)), kNonNegative, 3},
+                                          {at(offsetof(Bias, b1_sigma)), kNonNegative, 3},
+                                          {at(offsetof(Bias, b2_sigma)), kNonNegative, 3}};
+// A sensor's coefficients in a model of the given order (1 or 2): the table and its length.
+const Field* bias_fields(int order, int* n) {
+  *n = order == 2 ? 6 : 4;
+  return order == 2 ? kQuadraticBiasFields : kLinearBiasFields;
+}
+
+template <class T>
+T* member(void* base, std::uint16_t at) {
+  return static_cast<T*>(static_cast<void*>(static_cast<unsigned char*>(base) + at));
+}
+template <class T>
+const T& member(const void* base, std::uint16_t at) {
+  return *static_cast<const T*>(
+      static_cast<const void*>(static_cast<const unsigned char*>(base) + at));
+}
 
 // ---- Bytes ---------------------------------------------------------------------------------
 
+// Reads a section's payload field by field, each checked as it is read; remembers the first field
+// that is wrong (its offset in the record) and reads on. Reads past the payload never happen: the
+// caller checks its length first.
+class Reader {
+ public:
+  // parts: the record's parts field (the temperature model needs one of its sensors).
+  Reader(const std::uint8_t* record, std::size_t at, unsigned parts)
+      : rec_(record), pos_(at), parts_(parts) {}
+
+  // The temperature model's order: 1 or 2.
+  void order(int& v) {
+    v = static_cast<int>(take(1));
+    check(v == 1 || v == 2, 1);
+  }
+  template <std::size_t N>
+  void fields(const Field (&f)[N], void* base) {
+    fields(f, static_cast<int>(N), base);
+  }
+  void fields(const Field* f, int n, void* base);
+  unsigned model_flags() const { return flags_; }  // the temperature model's, once read
+
+  bool failed() const { return bad_ != kNone; }
+  std::size_t bad() const { return bad_; }
+
+ private:
+  static constexpr std::size_t kNone = ~std::size_t(0);
+  std::uint32_t take(int size) {
+    std::uint32_t v = 0;
+    for (int i = 0; i < size; ++i) v |= std::uint32_t{rec_[pos_++]} << (8 * i);
+    return v;
+  }
+  // The field of `size` bytes just read is right if ok.
+  void check(bool ok, int size) {
+    if (!ok && !failed()) bad_ = pos_ - static_cast<std::size_t>(size);
+  }
+  float real(Kind k) {
+    const std::uint32_t bits = take(4);
+    float v;
+    std::memcpy(&v, &bits, sizeof v);
+    bool ok;
+    if (k == kNote)
+      ok = meets(v, (flags_ & 1u) != 0 ? kCelsius : kZeroOnly);
+    else if (k == kTop)
+      ok = meets(v, kCelsius) && last_ <= v;
+    else
+      ok = meets(v, k);
+    check(ok, 4);
+    last_ = v;
+    return v;
+  }
+
+  const std::uint8_t* rec_;
+  std::size_t pos_;
+  unsigned parts_;
+  unsigned flags_ = 0;  // the last flags read
+  float last_ = 0.0f;   // the last real read
+  std::size_t bad_ = kNone;
+};
+
+void Reader::fields(const Field* f, int n, void* base) {
+  for (; n > 0; --n, ++f) {
+    if (f->kind <= kLastReal) {
+      float* v = member<float>(base, f->at);
+      for (int i = 0; i < f->n; ++i) v[i] = real(f->kind);
+      continue;
+    }
+    std::uint32_t v = f->kind == kReserved ? take(f->n) : f->kind == kCount ? take(2) : 0;
+    switch (f->kind) {
+      case kSoftIron: {
+        Matrix3<float>& s = *member<Matrix3<float>>(base, f->at);
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) s(r, c) = real(kFinite);
+        check(s.determinant() > 0.0f, 36);
+        break;
+      }
+      case kCount:
+        *member<int>(base, f->at) = static_cast<int>(v);
+        check(v >= f->n, 2);
+        break;
+      case kReserved:
+        check(v == 0, f->n);
+        break;
+      default:  // one byte
+        v = take(1);
+        flags_ = v;
+        if (f->kind == kQuality) {
+          check(v <= static_cast<std::uint32_t>(Quality::kGood), 1);
+          *member<Quality>(base, f->at) = static_cast<Quality>(v);
+        } else if (f->kind == kModelFlags) {
+          check((v & ~3u) == 0 && (v & parts_) != 0, 1);
+        } else {
+          check((v & ~1u) == 0, 1);
+          if (f->kind == kFlag)
+            *member<bool>(base, f->at) = v != 0;
+          else  // kAligned
+            *member<Status>(base, f->at) = v != 0 ? Status::kOk : Status::kNotStarted;
+        }
+        break;
+    }
+  }
+}
+
+// Writes a record's bytes (record_ok() has checked its values); bytes past the capacity are
+// counted, not written.
 class Writer {
  public:
   Writer(std::uint8_t* out, std::size_t capacity) : out_(out), capacity_(capacity) {}
-  void u8(std::uint8_t v) {
-    if (pos_ < capacity_) out_[pos_] = v;
-    ++pos_;
+
+  void put(std::uint32_t v, int size) {
+    for (int i = 0; i < size; ++i, ++pos_)
+      if (pos_ < capacity_) out_[pos_] = static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu);
   }
-  void u16(std::uint16_t v) {
-    u8(static_cast<std::uint8_t>(v & 0xFFu));
-    u8(static_cast<std::uint8_t>(v >> 8));
+  void section(Tag tag, std::uint16_t length) {
+    put(tag, 1);
+    put(0, 1);
+    put(length, 2);
   }
-  void u32(std::uint32_t v) {
-    for (int i = 0; i < 4; ++i) u8(static_cast<std::uint8_t>((v >> (8 * i)) & 0xFFu));
+  template <std::size_t N>
+  void fields(const Field (&f)[N], const void* base) {
+    fields(f, static_cast<int>(N), base);
   }
-  void f32(float v) {
-    std::uint32_t bits;
-    std::memcpy(&bits, &v, sizeof bits);
-    u32(bits);
-  }
+  void fields(const Field* f, int n, const void* base);
   void put_u16_at(std::size_t at, std::uint16_t v) {
     if (at + 1 < capacity_) {
       out_[at] = static_cast<std::uint8_t>(v & 0xFFu);
@@ -70,118 +344,98 @@ class Writer {
     }
   }
   std::size_t pos() const { return pos_; }
-  bool fits() const { return pos_ <= capacity_; }
 
  private:
+  void real(float v) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    put(bits, 4);
+  }
+
   std::uint8_t* out_;
   std::size_t capacity_;
   std::size_t pos_ = 0;
 };
 
+void Writer::fields(const Field* f, int n, const void* base) {
+  for (; n > 0; --n, ++f) {
+    if (f->kind <= kLastReal) {
+      const float* v = &member<float>(base, f->at);
+      for (int i = 0; i < f->n; ++i) real(v[i]);
+      continue;
+    }
+    switch (f->kind) {
+      case kSoftIron: {
+        const Matrix3<float>& s = member<Matrix3<float>>(base, f->at);
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) real(s(r, c));
+        break;
+      }
+      case kCount:
+        put(static_cast<std::uint32_t>(member<int>(base, f->at)), 2);
+        break;
+      case kReserved:
+        put(0, f->n);
+        break;
+      case kQuality:
+        put(static_cast<std::uint32_t>(member<Quality>(base, f->at)), 1);
+        break;
+      case kFlag:
+        put(member<bool>(base, f->at) ? 1u : 0u, 1);
+        break;
+      case kAligned:
+        put(succeeded(member<Status>(base, f->at)) ? 1u : 0u, 1);
+        break;
+      default: {  // kModelFlags
+        const Model& t = member<Model>(base, f->at);
+        put((succeeded(t.accel.status) ? 1u : 0u) | (succeeded(t.gyro.status) ? 2u : 0u), 1);
+        break;
+      }
+    }
+  }
+}
+
 using detail::load_u16;
 using detail::load_u32;
 
-float load_f32(const std::uint8_t* p) {
-  const std::uint32_t bits = load_u32(p);
-  float v;
-  std::memcpy(&v, &bits, sizeof v);
-  return v;
-}
-
-// Reads a section's payload field by field; the first out-of-range field sets `bad` (its
-// offset in the record). Reads past the payload never happen: the callers check its length.
-class Reader {
- public:
-  Reader(const std::uint8_t* record, std::size_t at) : rec_(record), pos_(at) {}
-  std::uint8_t u8() { return rec_[pos_++]; }
-  std::uint16_t u16() {
-    const std::uint16_t v = load_u16(rec_ + pos_);
-    pos_ += 2;
-    return v;
-  }
-  float f32() {
-    const float v = load_f32(rec_ + pos_);
-    pos_ += 4;
-    return v;
-  }
-  // Checks that the field just read is acceptable; remembers the first one that is not.
-  void expect(bool ok, std::size_t size) {
-    if (!ok && !failed()) bad_ = pos_ - size;
-  }
-  void zero_u8() { expect(u8() == 0, 1); }
-  void zero_u16() { expect(u16() == 0, 2); }
-  float finite_f32() {
-    const float v = f32();
-    expect(std::isfinite(v), 4);
-    return v;
-  }
-  float non_negative_f32() {
-    const float v = f32();
-    expect(std::isfinite(v) && v >= 0.0f, 4);
-    return v;
-  }
-  bool failed() const { return bad_ != kNone; }
-  std::size_t bad() const { return bad_; }
-
- private:
-  static constexpr std::size_t kNone = ~std::size_t(0);
-  const std::uint8_t* rec_;
-  std::size_t pos_;
-  std::size_t bad_ = kNone;
-};
-
-// ---- Validity of a record's values (shared by encode and decode) -----------------------------
-
-bool temperature_ok(bool known, float t) {
-  return known ? (std::isfinite(t) && t >= kMinTemperature && t <= kMaxTemperature) : t == 0.0f;
-}
-bool sample_rate_ok(float r) { return std::isfinite(r) && r >= 0.0f && r <= kMaxSampleRate; }
-bool accel_scale_ok(float s) { return std::isfinite(s) && s > 0.0f; }
-bool gyro_scale_ok(float s) { return std::isfinite(s) && s != 0.0f; }
-bool sigma_ok(float s) { return std::isfinite(s) && s >= 0.0f; }
+// ---- Validity of a record's values for the encoder (the decoder's checks, on values) ----------
 
 template <class V>
-bool all_of_finite(const V& v) {
-  for (int i = 0; i < v.size(); ++i)
-    if (!std::isfinite(v(i))) return false;
-  return true;
+bool all_finite_f(const V& v) {
+  return all_meet(v.data(), static_cast<int>(v.size()), kFinite);
 }
 template <class V>
 bool all_sigmas_ok(const V& v) {
-  for (int i = 0; i < v.size(); ++i)
-    if (!sigma_ok(v(i))) return false;
-  return true;
+  return all_meet(v.data(), static_cast<int>(v.size()), kNonNegative);
 }
 
 bool accel_ok(const AccelCalibration<float>& a) {
-  return a.poses >= kAccelMinPoses && a.poses <= 0xFFFF && all_of_finite(a.params) &&
-         accel_scale_ok(a.params(kScaleX)) && accel_scale_ok(a.params(kScaleY)) &&
-         accel_scale_ok(a.params(kScaleZ)) && all_sigmas_ok(a.sigma) && sigma_ok(a.residual_rms);
+  const float* p = a.params.data();
+  return a.poses >= kAccelMinPoses && a.poses <= 0xFFFF && all_meet(p, kScaleX, kFinite) &&
+         all_meet(p + kScaleX, 3, kPositive) && all_meet(p + kBiasX, 3, kFinite) &&
+         all_sigmas_ok(a.sigma) && meets(a.residual_rms, kNonNegative);
 }
 bool gyro_ok(const GyroCalibration<float>& g) {
-  return g.moves >= 1 && g.moves <= 0xFFFF && all_of_finite(g.params) &&
-         gyro_scale_ok(g.params(kGyroScaleX)) && gyro_scale_ok(g.params(kGyroScaleY)) &&
-         gyro_scale_ok(g.params(kGyroScaleZ)) && all_sigmas_ok(g.sigma) && sigma_ok(g.residual_rms);
+  const float* p = g.params.data();
+  return g.moves >= 1 && g.moves <= 0xFFFF && all_meet(p, kGyroScaleX, kFinite) &&
+         all_meet(p + kGyroScaleX, 3, kNonZero) && all_meet(p + kGyroBiasX, 3, kFinite) &&
+         all_sigmas_ok(g.sigma) && meets(g.residual_rms, kNonNegative);
 }
-bool coverage_ok(float c) { return std::isfinite(c) && c >= 0.0f && c <= 1.0f; }
-bool dip_ok(float d) { return std::isfinite(d) && d >= -90.0f && d <= 90.0f; }
-bool field_ok(float f) { return std::isfinite(f) && f > 0.0f; }
-// A soft iron that mirrors space (or collapses it) is not a calibration.
-bool soft_iron_ok(const Matrix3<float>& m) { return m.determinant() > 0.0f; }
 bool mag_ok(const MagCalibration<float>& m) {
   return m.samples >= 1 && m.samples <= 0xFFFF && m.quality <= Quality::kGood &&
-         all_of_finite(m.soft_iron.reshaped()) && soft_iron_ok(m.soft_iron) &&
-         all_of_finite(m.hard_iron) && all_sigmas_ok(m.hard_iron_sigma) &&
-         all_sigmas_ok(m.soft_iron_sigma) && field_ok(m.field_ut) && sigma_ok(m.fit_error_pct) &&
-         coverage_ok(m.coverage) && dip_ok(m.dip_deg) && sigma_ok(m.dip_sigma_deg);
+         all_finite_f(m.soft_iron) && m.soft_iron.determinant() > 0.0f &&
+         all_finite_f(m.hard_iron) && all_sigmas_ok(m.hard_iron_sigma) &&
+         all_sigmas_ok(m.soft_iron_sigma) && meets(m.field_ut, kPositive) &&
+         meets(m.fit_error_pct, kNonNegative) && meets(m.coverage, kFraction) &&
+         meets(m.dip_deg, kDip) && meets(m.dip_sigma_deg, kNonNegative);
 }
 bool temperature_bias_ok(const TemperatureBias<float>& b, int order) {
-  return all_of_finite(b.b0) && all_of_finite(b.b1) && all_of_finite(b.b2) &&
+  return all_finite_f(b.b0) && all_finite_f(b.b1) && all_finite_f(b.b2) &&
          all_sigmas_ok(b.b0_sigma) && all_sigmas_ok(b.b1_sigma) && all_sigmas_ok(b.b2_sigma) &&
          (order == 2 || (b.b2.isZero(0.0f) && b.b2_sigma.isZero(0.0f)));
 }
-bool temperature_range_ok(float t) { return temperature_ok(true, t); }
 // A sensor's coefficients only with the sensor: bounded through its matrix, applied to it alone.
+// The range of its temperatures is a bound (record_bound(): kImplausible), not the format's.
 bool temperature_model_ok(const TemperatureModel<float>& t, std::uint16_t parts) {
   const bool a = succeeded(t.accel.status), g = succeeded(t.gyro.status);
   return (t.order == 1 || t.order == 2) && (a || g) && (!a || (parts & kRecordAccel)) &&
@@ -193,8 +447,8 @@ bool temperature_model_ok(const TemperatureModel<float>& t, std::uint16_t parts)
 bool record_ok(const CalibrationRecord& r) {
   const Calibration<float>& c = r.calibration;
   return (r.parts & ~kKnownParts) == 0 && r.parts != 0 && c.quality <= Quality::kGood &&
-         temperature_ok(c.has_temperature, c.temperature_c) && sample_rate_ok(c.sample_rate_hz) &&
-         (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
+         meets(c.temperature_c, c.has_temperature ? kCelsius : kZeroOnly) &&
+         meets(c.sample_rate_hz, kRate) && (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
          (!(r.parts & kRecordGyro) || gyro_ok(c.gyro)) &&
          (!(r.parts & kRecordMag) || mag_ok(r.mag)) &&
          (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature, r.parts));
@@ -234,7 +488,7 @@ Bound record_bound_in(const CalibrationRecord& r, bool* in_temperature_model) {
   const Calibration<float>& c = r.calibration;
   const bool accel = (r.parts & kRecordAccel) != 0, gyro = (r.parts & kRecordGyro) != 0;
   if (c.has_temperature && !temperature_plausible(c.temperature_c)) return Bound::kTemperature;
-  if (!sample_rate_ok(c.sample_rate_hz)) return Bound::kSampleRate;
+  if (!meets(c.sample_rate_hz, kRate)) return Bound::kSampleRate;
   Bound b = Bound::kNone;
   if (accel && (b = accel_bound(c.accel.params)) != Bound::kNone) return b;
   if (gyro && (b = gyro_bound(c.gyro.params)) != Bound::kNone) return b;
@@ -246,176 +500,6 @@ Bound record_bound_in(const CalibrationRecord& r, bool* in_temperature_model) {
     *in_temperature_model = b != Bound::kNone;
   }
   return b;
-}
-
-// ---- Sections --------------------------------------------------------------------------------
-
-void read_info(Reader& in, Calibration<float>& c) {
-  const std::uint8_t quality = in.u8();
-  in.expect(quality <= static_cast<std::uint8_t>(Quality::kGood), 1);
-  c.quality = static_cast<Quality>(quality);
-  const std::uint8_t flags = in.u8();
-  in.expect((flags & ~1u) == 0, 1);
-  c.has_temperature = (flags & 1u) != 0;
-  in.zero_u16();
-  c.temperature_c = in.f32();
-  in.expect(temperature_ok(c.has_temperature, c.temperature_c), 4);
-  c.sample_rate_hz = in.f32();
-  in.expect(sample_rate_ok(c.sample_rate_hz), 4);
-}
-
-// A sensor's parameters (the three from first_scale on checked as scales), sigmas, residual.
-template <class V>
-void read_block(Reader& in, V& params, V& sigma, float& rms, int first_scale,
-                bool (*scale_ok)(float)) {
-  for (int i = 0; i < params.size(); ++i) {
-    params(i) = in.finite_f32();
-    if (i >= first_scale && i < first_scale + 3) in.expect(scale_ok(params(i)), 4);
-  }
-  for (int i = 0; i < sigma.size(); ++i) sigma(i) = in.non_negative_f32();
-  rms = in.non_negative_f32();
-}
-template <class V>
-void write_block(Writer& w, const V& params, const V& sigma, float rms) {
-  for (int i = 0; i < params.size(); ++i) w.f32(params(i));
-  for (int i = 0; i < sigma.size(); ++i) w.f32(sigma(i));
-  w.f32(rms);
-}
-
-void read_accel(Reader& in, AccelCalibration<float>& a) {
-  a.poses = in.u16();
-  in.expect(a.poses >= kAccelMinPoses, 2);
-  in.zero_u16();
-  read_block(in, a.params, a.sigma, a.residual_rms, kScaleX, accel_scale_ok);
-  a.status = Status::kOk;
-}
-
-void read_gyro(Reader& in, GyroCalibration<float>& g) {
-  g.moves = in.u16();
-  in.expect(g.moves >= 1, 2);
-  const std::uint8_t flags = in.u8();
-  in.expect((flags & ~1u) == 0, 1);
-  g.bias_refined = (flags & 1u) != 0;
-  in.zero_u8();
-  read_block(in, g.params, g.sigma, g.residual_rms, kGyroScaleX, gyro_scale_ok);
-  g.status = Status::kOk;
-}
-
-void read_vector(Reader& in, Vector3<float>& v) {
-  for (int i = 0; i < 3; ++i) v(i) = in.finite_f32();
-}
-void read_sigmas(Reader& in, Vector3<float>& v) {
-  for (int i = 0; i < 3; ++i) v(i) = in.non_negative_f32();
-}
-void write_vector(Writer& w, const Vector3<float>& v) {
-  for (int i = 0; i < 3; ++i) w.f32(v(i));
-}
-
-void read_mag(Reader& in, MagCalibration<float>& m) {
-  m.samples = in.u16();
-  in.expect(m.samples >= 1, 2);
-  const std::uint8_t quality = in.u8();
-  in.expect(quality <= static_cast<std::uint8_t>(Quality::kGood), 1);
-  m.quality = static_cast<Quality>(quality);
-  const std::uint8_t flags = in.u8();
-  in.expect((flags & ~1u) == 0, 1);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m.soft_iron(r, c) = in.finite_f32();
-  in.expect(soft_iron_ok(m.soft_iron), 36);
-  read_vector(in, m.hard_iron);
-  read_sigmas(in, m.hard_iron_sigma);
-  for (int i = 0; i < kMagSymEntries; ++i) m.soft_iron_sigma(i) = in.non_negative_f32();
-  m.field_ut = in.f32();
-  in.expect(field_ok(m.field_ut), 4);
-  m.fit_error_pct = in.non_negative_f32();
-  m.coverage = in.f32();
-  in.expect(coverage_ok(m.coverage), 4);
-  m.dip_deg = in.f32();
-  in.expect(dip_ok(m.dip_deg), 4);
-  m.dip_sigma_deg = in.non_negative_f32();
-  m.status = Status::kOk;
-  m.alignment_status = (flags & 1u) ? Status::kOk : Status::kNotStarted;
-}
-void write_mag(Writer& w, const MagCalibration<float>& m) {
-  w.u8(kTagMag);
-  w.u8(0);
-  w.u16(kMagBytes);
-  w.u16(static_cast<std::uint16_t>(m.samples));
-  w.u8(static_cast<std::uint8_t>(m.quality));
-  w.u8(succeeded(m.alignment_status) ? 1 : 0);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) w.f32(m.soft_iron(r, c));
-  write_vector(w, m.hard_iron);
-  write_vector(w, m.hard_iron_sigma);
-  for (int i = 0; i < kMagSymEntries; ++i) w.f32(m.soft_iron_sigma(i));
-  w.f32(m.field_ut);
-  w.f32(m.fit_error_pct);
-  w.f32(m.coverage);
-  w.f32(m.dip_deg);
-  w.f32(m.dip_sigma_deg);
-}
-
-// A sensor's temperature coefficients; all are read (an unusable sensor's are zeros).
-void read_temperature_bias(Reader& in, TemperatureBias<float>& b, int order, bool usable) {
-  read_vector(in, b.b0);
-  read_vector(in, b.b1);
-  if (order == 2) read_vector(in, b.b2);
-  read_sigmas(in, b.b0_sigma);
-  read_sigmas(in, b.b1_sigma);
-  if (order == 2) read_sigmas(in, b.b2_sigma);
-  b.status = usable ? Status::kOk : Status::kNotStarted;
-  if (!usable) b = TemperatureBias<float>{};
-}
-void write_temperature_bias(Writer& w, const TemperatureBias<float>& b, int order) {
-  const bool usable = succeeded(b.status);
-  const TemperatureBias<float> zero{};
-  const TemperatureBias<float>& v = usable ? b : zero;
-  write_vector(w, v.b0);
-  write_vector(w, v.b1);
-  if (order == 2) write_vector(w, v.b2);
-  write_vector(w, v.b0_sigma);
-  write_vector(w, v.b1_sigma);
-  if (order == 2) write_vector(w, v.b2_sigma);
-}
-
-// The order comes first: it sets the payload's length (checked by the caller through `length`).
-// The flags' bits 0 and 1 are the parts bits of the accelerometer and the gyro: the coefficients
-// of a sensor the record does not hold are read and left out, a model of none of its sensors is
-// refused.
-static_assert(kRecordAccel == 1u && kRecordGyro == 2u, "the temperature flags' bits");
-bool read_temperature(Reader& in, std::size_t length, std::uint16_t parts,
-                      TemperatureModel<float>& t) {
-  t.order = in.u8();
-  in.expect(t.order == 1 || t.order == 2, 1);
-  if (in.failed()) return true;
-  if (length < temperature_bytes(t.order)) return false;
-  const unsigned flags = in.u8();
-  in.expect((flags & ~3u) == 0 && (flags & parts) != 0, 1);
-  t.rests = in.u16();
-  in.expect(t.rests >= 1, 2);
-  t.reference_c = in.f32();
-  in.expect(temperature_range_ok(t.reference_c), 4);
-  t.min_c = in.f32();
-  in.expect(temperature_range_ok(t.min_c), 4);
-  t.max_c = in.f32();
-  in.expect(temperature_range_ok(t.max_c) && t.min_c <= t.max_c, 4);
-  read_temperature_bias(in, t.accel, t.order, (flags & parts & kRecordAccel) != 0);
-  read_temperature_bias(in, t.gyro, t.order, (flags & parts & kRecordGyro) != 0);
-  return true;
-}
-void write_temperature(Writer& w, const TemperatureModel<float>& t) {
-  w.u8(kTagTemperature);
-  w.u8(0);
-  w.u16(temperature_bytes(t.order));
-  w.u8(static_cast<std::uint8_t>(t.order));
-  w.u8(static_cast<std::uint8_t>((succeeded(t.accel.status) ? 1u : 0u) |
-                                 (succeeded(t.gyro.status) ? 2u : 0u)));
-  w.u16(static_cast<std::uint16_t>(t.rests));
-  w.f32(t.reference_c);
-  w.f32(t.min_c);
-  w.f32(t.max_c);
-  write_temperature_bias(w, t.accel, t.order);
-  write_temperature_bias(w, t.gyro, t.order);
 }
 
 template <typename Scalar, class V>
@@ -505,8 +589,17 @@ Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
 }  // namespace
 
 CalibrationRecord::CalibrationRecord() = default;
-CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) = default;
-CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) = default;
+// A record is its bytes: standard layout, every member a number, an enum or a fixed-size Eigen
+// matrix of floats (the codec's tables read and write them through their offsets), so a copy is
+// one memcpy instead of member-wise code for some 160 fields.
+CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) {
+  std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), sizeof other);
+}
+CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) {
+  if (this != &other)
+    std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), sizeof other);
+  return *this;
+}
 
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc) {
   // CRC of each nibble value, reflected polynomial 0xEDB88320.
@@ -590,47 +683,43 @@ Status encode_record(const CalibrationRecord& r, std::uint8_t* out, std::size_t 
   if (record_bound(r) != Bound::kNone) return Status::kImplausible;
   const Calibration<float>& c = r.calibration;
   Writer w(out, capacity);
-  for (std::uint8_t b : kMagic) w.u8(b);
-  w.u8(kRecordVersion);
-  w.u8(0);
-  w.u16(0);  // length, filled in below
-  w.u32(r.device_id);
-  w.u32(r.sensor_id);
-  w.u16(r.parts);
-  w.u16(0);
-  w.u8(kTagInfo);
-  w.u8(0);
-  w.u16(kInfoBytes);
-  w.u8(static_cast<std::uint8_t>(c.quality));
-  w.u8(c.has_temperature ? 1 : 0);
-  w.u16(0);
-  w.f32(c.temperature_c);
-  w.f32(c.sample_rate_hz);
+  for (std::uint8_t b : kMagic) w.put(b, 1);
+  w.put(kRecordVersion, 1);
+  w.put(0, 1);
+  w.put(0, 2);  // length, filled in below
+  w.put(r.device_id, 4);
+  w.put(r.sensor_id, 4);
+  w.put(r.parts, 2);
+  w.put(0, 2);
+  w.section(kTagInfo, kInfoBytes);
+  w.fields(kInfoFields, &c);
   if (r.parts & kRecordAccel) {
-    const AccelCalibration<float>& a = c.accel;
-    w.u8(kTagAccel);
-    w.u8(0);
-    w.u16(kAccelBytes);
-    w.u16(static_cast<std::uint16_t>(a.poses));
-    w.u16(0);
-    write_block(w, a.params, a.sigma, a.residual_rms);
+    w.section(kTagAccel, kAccelBytes);
+    w.fields(kAccelFields, &c.accel);
   }
   if (r.parts & kRecordGyro) {
-    const GyroCalibration<float>& g = c.gyro;
-    w.u8(kTagGyro);
-    w.u8(0);
-    w.u16(kGyroBytes);
-    w.u16(static_cast<std::uint16_t>(g.moves));
-    w.u8(g.bias_refined ? 1 : 0);
-    w.u8(0);
-    write_block(w, g.params, g.sigma, g.residual_rms);
+    w.section(kTagGyro, kGyroBytes);
+    w.fields(kGyroFields, &c.gyro);
   }
-  if (r.parts & kRecordMag) write_mag(w, r.mag);
-  if (r.parts & kRecordTemperature) write_temperature(w, r.temperature);
+  if (r.parts & kRecordMag) {
+    w.section(kTagMag, kMagBytes);
+    w.fields(kMagFields, &r.mag);
+  }
+  if (r.parts & kRecordTemperature) {
+    const Model& t = r.temperature;
+    w.section(kTagTemperature, temperature_bytes(t.order));
+    w.put(static_cast<std::uint32_t>(t.order), 1);
+    w.fields(kModelFields, &t);
+    int count = 0;
+    const Field* bias = bias_fields(t.order, &count);
+    const Bias zero{};  // an unusable sensor's coefficients
+    w.fields(bias, count, succeeded(t.accel.status) ? &t.accel : &zero);
+    w.fields(bias, count, succeeded(t.gyro.status) ? &t.gyro : &zero);
+  }
   const std::size_t n = w.pos() + kCrcBytes;
   if (n > capacity || n > kRecordMaxBytes) return Status::kCapacityExceeded;
   w.put_u16_at(6, static_cast<std::uint16_t>(n));
-  w.u32(crc32(out, n - kCrcBytes));
+  w.put(crc32(out, n - kCrcBytes), 4);
   if (size != nullptr) *size = n;
   return Status::kOk;
 }
@@ -677,56 +766,62 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
     const std::size_t length = load_u16(data + at + 2);
     const std::size_t payload = at + kSectionHeaderBytes;
     if (length > end - payload) return fail(Status::kRecordBadLength, at + 2, error_offset);
-    const std::uint16_t bit = static_cast<std::uint16_t>(tag < 16 ? 1u << tag : 0u);
-    if (tag <= kLastKnownTag && (seen & bit))
-      return fail(Status::kRecordBadField, at, error_offset);
+    Reader in(data, payload, parts);
+    if (tag > kLastKnownTag) {
+      ++r.unknown_sections;
+      at = payload + length;
+      continue;
+    }
+    const std::uint16_t bit = static_cast<std::uint16_t>(1u << tag);
+    if (seen & bit) return fail(Status::kRecordBadField, at, error_offset);
     seen = static_cast<std::uint16_t>(seen | bit);
-    if (tag <= kLastKnownTag) payload_at[tag] = payload;
-    Reader in(data, payload);
+    payload_at[tag] = payload;
+    const KnownSection& known = kKnownSections[tag];
+    if (length < known.min_length) return fail(Status::kRecordBadLength, at + 2, error_offset);
+    if (known.part & ~parts) return fail(Status::kRecordBadField, at, error_offset);
     switch (tag) {
       case kTagInfo:
-        if (length < kInfoBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
-        read_info(in, r.calibration);
+        in.fields(kInfoFields, &r.calibration);
         break;
       case kTagAccel:
-        if (length < kAccelBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
-        if (!(parts & kRecordAccel)) return fail(Status::kRecordBadField, at, error_offset);
-        read_accel(in, r.calibration.accel);
+        in.fields(kAccelFields, &r.calibration.accel);
+        r.calibration.accel.status = Status::kOk;
         break;
       case kTagGyro:
-        if (length < kGyroBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
-        if (!(parts & kRecordGyro)) return fail(Status::kRecordBadField, at, error_offset);
-        read_gyro(in, r.calibration.gyro);
+        in.fields(kGyroFields, &r.calibration.gyro);
+        r.calibration.gyro.status = Status::kOk;
         break;
       case kTagMag:
-        if (length < kMagBytes) return fail(Status::kRecordBadLength, at + 2, error_offset);
-        if (!(parts & kRecordMag)) return fail(Status::kRecordBadField, at, error_offset);
-        read_mag(in, r.mag);
+        in.fields(kMagFields, &r.mag);
+        r.mag.status = Status::kOk;
         break;
-      case kTagTemperature:
-        if (length < kTemperatureHeadBytes)
+      default: {  // kTagTemperature
+        Model& t = r.temperature;
+        in.order(t.order);
+        if (in.failed()) break;
+        if (length < temperature_bytes(t.order))
           return fail(Status::kRecordBadLength, at + 2, error_offset);
-        if (!(parts & kRecordTemperature)) return fail(Status::kRecordBadField, at, error_offset);
-        if (!read_temperature(in, length, parts, r.temperature))
-          return fail(Status::kRecordBadLength, at + 2, error_offset);
+        in.fields(kModelFields, &t);
+        int count = 0;
+        const Field* fields = bias_fields(t.order, &count);
+        Bias ignored;  // the coefficients of a sensor not in the record: read, checked, left out
+        Bias* const biases[2] = {&t.accel, &t.gyro};
+        for (unsigned k = 0; k < 2; ++k) {
+          const bool usable = (in.model_flags() & parts & (1u << k)) != 0;
+          in.fields(fields, count, usable ? biases[k] : &ignored);
+          if (usable) biases[k]->status = Status::kOk;
+        }
         break;
-      default:
-        ++r.unknown_sections;
-        break;
+      }
     }
     if (in.failed()) return fail(Status::kRecordBadField, in.bad(), error_offset);
     at = payload + length;
   }
   // Every known part announced has its section, and the info section is there.
   if (!(seen & (1u << kTagInfo))) return fail(Status::kRecordBadField, end, error_offset);
-  if ((parts & kRecordAccel) && !(seen & (1u << kTagAccel)))
-    return fail(Status::kRecordBadField, 16, error_offset);
-  if ((parts & kRecordGyro) && !(seen & (1u << kTagGyro)))
-    return fail(Status::kRecordBadField, 16, error_offset);
-  if ((parts & kRecordMag) && !(seen & (1u << kTagMag)))
-    return fail(Status::kRecordBadField, 16, error_offset);
-  if ((parts & kRecordTemperature) && !(seen & (1u << kTagTemperature)))
-    return fail(Status::kRecordBadField, 16, error_offset);
+  for (int tag = kTagAccel; tag <= kLastKnownTag; ++tag)
+    if ((parts & kKnownSections[tag].part) && !(seen & (1u << tag)))
+      return fail(Status::kRecordBadField, 16, error_offset);
   // Every value within its physical bounds.
   bool in_model = false;
   const Bound b = record_bound_in(r, &in_model);

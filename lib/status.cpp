@@ -1,7 +1,37 @@
 #include "imucal/status.hpp"
 
+// 1: to_string(Status) gives the description; 0: the number (status.hpp).
+#ifndef IMUCAL_STATUS_STRINGS
+#define IMUCAL_STATUS_STRINGS 1
+#endif
+
 namespace imucal {
 
+#if !IMUCAL_STATUS_STRINGS
+namespace {
+
+// "0" to "99", each in 3 characters with its terminator.
+struct Numbers {
+  char text[100][3];
+};
+constexpr Numbers numbers() {
+  Numbers n{};
+  for (int i = 0; i < 100; ++i) {
+    const int tens = i / 10;
+    n.text[i][0] = static_cast<char>('0' + (tens > 0 ? tens : i % 10));
+    n.text[i][1] = static_cast<char>(tens > 0 ? '0' + i % 10 : '\0');
+  }
+  return n;
+}
+constexpr Numbers kNumbers = numbers();
+
+}  // namespace
+
+const char* to_string(Status s) {
+  const unsigned i = static_cast<unsigned>(s);
+  return i < 100 ? kNumbers.text[i] : "unknown status";
+}
+#else
 const char* to_string(Status s) {
   switch (s) {
     case Status::kOk:
@@ -108,6 +138,7 @@ const char* to_string(Status s) {
   }
   return "unknown status";
 }
+#endif
 
 const char* to_string(Quality q) {
   switch (q) {

@@ -26,6 +26,17 @@ struct Interval {
 // The recording's folder: $IMUCAL_XSENS_DIR, else ../shared/data/xsens. Empty if absent.
 std::string find_xsens_dir();
 
+// In a gtest test: `dir` the recording's folder; if it is absent the test skips, or fails where
+// the build requires the recording (IMUCAL_REQUIRE_XSENS).
+#ifdef IMUCAL_REQUIRE_XSENS
+#define IMUCAL_XSENS_ABSENT() FAIL() << "xsens recording required but not found"
+#else
+#define IMUCAL_XSENS_ABSENT() GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)"
+#endif
+#define IMUCAL_XSENS_DIR_OR_SKIP(dir)                       \
+  const std::string dir = ::imucal::test::find_xsens_dir(); \
+  if (dir.empty()) IMUCAL_XSENS_ABSENT()
+
 // False (with a message) on a missing file or a malformed line.
 bool read_txyz(const std::string& path, std::vector<Sample>& out, std::string& error);
 

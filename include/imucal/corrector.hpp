@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
+#include <type_traits>
 
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/calibration.hpp"
@@ -51,13 +52,11 @@ class Corrector {
 
   // Both sensors pass through unchanged.
   void clear() {
-    acc_m_.setIdentity();
-    acc_c_.setZero();
-    gyro_m_.setIdentity();
-    gyro_c_.setZero();
-    mag_m_.setIdentity();
-    mag_c_.setZero();
-    temperature_ = TemperatureModel<Scalar>{};
+    for (int k = 0; k < kSensors; ++k) {
+      m_[k].setIdentity();
+      c_[k].setZero();
+    }
+    model_ = Model{};
     temperature_c_ = Scalar(0);
     parts_ = 0;
     bound_ = Bound::kNone;
@@ -76,19 +75,11 @@ class Corrector {
     if (b != Bound::kNone) return refuse(b);
     if (!a && !g) return c.accel.status == Status::kOk ? Status::kNotStarted : c.accel.status;
     Corrector next;
-    if (a) {
-      const AccelVector<From>& p = c.accel.params;
-      const Vector3<From> bias(p(kBiasX), p(kBiasY), p(kBiasZ));
-      if (!load(accel_matrix(p), bias, next.acc_m_, next.acc_c_)) return refuse(Bound::kNonFinite);
-      next.parts_ = static_cast<std::uint16_t>(next.parts_ | kRecordAccel);
-    }
-    if (g) {
-      const GyroVector<From>& p = c.gyro.params;
-      const Vector3<From> bias(p(kGyroBiasX), p(kGyroBiasY), p(kGyroBiasZ));
-      if (!load(gyro_matrix<From>(p), bias, next.gyro_m_, next.gyro_c_))
-        return refuse(Bound::kNonFinite);
-      next.parts_ = static_cast<std::uint16_t>(next.parts_ | kRecordGyro);
-    }
+    if (a && !load(accel_matrix(c.accel.params), c.accel.params.data() + kBiasX, next, kAccel))
+      return refuse(Bound::kNonFinite);
+    if (g &&
+        !load(gyro_matrix<From>(c.gyro.params), c.gyro.params.data() + kGyroBiasX, next, kGyro))
+      return refuse(Bound::kNonFinite);
     *this = next;
     return Status::kOk;
   }
@@ -118,8 +109,7 @@ class Corrector {
     if (!succeeded(m.status)) return m.status;
     const Bound b = mag_bound(m.soft_iron, m.hard_iron, m.field_ut);
     if (b != Bound::kNone) return refuse(b);
-    if (!load(m.soft_iron, m.hard_iron, mag_m_, mag_c_)) return refuse(Bound::kNonFinite);
-    parts_ = static_cast<std::uint16_t>(parts_ | kRecordMag);
+    if (!load(m.soft_iron, m.hard_iron.data(), *this, kMag)) return refuse(Bound::kNonFinite);
     return Status::kOk;
   }
 
@@ -131,30 +121,29 @@ class Corrector {
     const bool a = succeeded(t.accel.status) && (parts_ & kRecordAccel);
     const bool g = succeeded(t.gyro.status) && (parts_ & kRecordGyro);
     if (!a && !g) return Status::kNotStarted;
-    TemperatureModel<Scalar> m;
-    m.order = t.order;
-    m.reference_c = static_cast<Scalar>(t.reference_c);
-    m.min_c = static_cast<Scalar>(t.min_c);
-    m.max_c = static_cast<Scalar>(t.max_c);
-    m.rests = t.rests;
-    if (a) m.accel = cast_bias(t.accel);
-    if (g) m.gyro = cast_bias(t.gyro);
-    if ((a && !succeeded(m.accel.status)) || (g && !succeeded(m.gyro.status)))
-      return refuse(Bound::kNonFinite);
-    const Bound b = temperature_model_bound(m, a ? &acc_m_ : nullptr, g ? &gyro_m_ : nullptr);
-    if (b != Bound::kNone) return refuse(b);
-    const TemperatureModel<Scalar> previous = temperature_;
-    const Scalar previous_c = temperature_c_;
-    const std::uint16_t previous_parts = parts_;
-    temperature_ = m;
-    parts_ = static_cast<std::uint16_t>(parts_ | kRecordTemperature);
-    const Status s = set_temperature(m.reference_c);
-    if (s != Status::kOk) {
-      temperature_ = previous;
-      temperature_c_ = previous_c;
-      parts_ = previous_parts;
+    Model next{};
+    next.sensors = static_cast<std::uint8_t>((a ? 1u : 0u) | (g ? 2u : 0u));
+    next.reference = static_cast<Scalar>(t.reference_c);
+    next.min = static_cast<Scalar>(t.min_c);
+    next.max = static_cast<Scalar>(t.max_c);
+    const TemperatureBias<From>* const in[kTemperatureSensors] = {&t.accel, &t.gyro};
+    for (int k = 0; k < kTemperatureSensors; ++k) {
+      if (!(next.sensors & (1u << k))) continue;
+      const Vector3<From>* const terms[3] = {&in[k]->b0, &in[k]->b1, &in[k]->b2};
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) next.b[k][j][i] = static_cast<Scalar>((*terms[j])(i));
+      if (!bounds::finite(&next.b[k][0][0], 9)) return refuse(Bound::kNonFinite);
     }
-    return s;
+    const Bound b = model_bound(t, next, a ? &m_[kAccel] : nullptr, g ? &m_[kGyro] : nullptr);
+    if (b != Bound::kNone) return refuse(b);
+    Vector3<Scalar> c[kTemperatureSensors];
+    Scalar at = next.reference;
+    const Bound offset = offsets(next, at, c);
+    if (offset != Bound::kNone) return refuse(offset);
+    model_ = next;
+    commit(c, at);
+    parts_ = static_cast<std::uint16_t>(parts_ | kRecordTemperature);
+    return Status::kOk;
   }
 
   // The biases at temperature t (deg C), clamped to the model's range. kNonFiniteInput for a NaN
@@ -163,16 +152,10 @@ class Corrector {
   Status set_temperature(Scalar t) {
     if (!(parts_ & kRecordTemperature)) return Status::kNotStarted;
     if (!all_finite(t)) return Status::kNonFiniteInput;
-    const TemperatureModel<Scalar>& m = temperature_;
-    t = t < m.min_c ? m.min_c : (t > m.max_c ? m.max_c : t);
-    Vector3<Scalar> ca = acc_c_, cg = gyro_c_;
-    if (succeeded(m.accel.status)) ca.noalias() = acc_m_ * m.accel.at(t, m.reference_c);
-    if (succeeded(m.gyro.status)) cg.noalias() = gyro_m_ * m.gyro.at(t, m.reference_c);
-    if (!all_finite(ca)) return refuse(Bound::kAccelOffset);
-    if (!all_finite(cg)) return refuse(Bound::kGyroOffset);
-    acc_c_ = ca;
-    gyro_c_ = cg;
-    temperature_c_ = t;
+    Vector3<Scalar> c[kTemperatureSensors];
+    const Bound offset = offsets(model_, t, c);
+    if (offset != Bound::kNone) return refuse(offset);
+    commit(c, t);
     return Status::kOk;
   }
   Scalar temperature() const { return temperature_c_; }  // as last set (after clamping)
@@ -180,12 +163,16 @@ class Corrector {
   // The hot path: no branches, no checks.
   void apply(const Vector3<Scalar>& acc_raw, const Vector3<Scalar>& gyro_raw, Vector3<Scalar>& acc,
              Vector3<Scalar>& gyro) const {
-    affine(acc_m_, acc_raw, acc_c_, acc);
-    affine(gyro_m_, gyro_raw, gyro_c_, gyro);
+    affine(m_[kAccel], acc_raw, c_[kAccel], acc);
+    affine(m_[kGyro], gyro_raw, c_[kGyro], gyro);
   }
-  Vector3<Scalar> accel(const Vector3<Scalar>& raw) const { return affine(acc_m_, raw, acc_c_); }
-  Vector3<Scalar> gyro(const Vector3<Scalar>& raw) const { return affine(gyro_m_, raw, gyro_c_); }
-  Vector3<Scalar> mag(const Vector3<Scalar>& raw) const { return affine(mag_m_, raw, mag_c_); }
+  Vector3<Scalar> accel(const Vector3<Scalar>& raw) const {
+    return affine(m_[kAccel], raw, c_[kAccel]);
+  }
+  Vector3<Scalar> gyro(const Vector3<Scalar>& raw) const {
+    return affine(m_[kGyro], raw, c_[kGyro]);
+  }
+  Vector3<Scalar> mag(const Vector3<Scalar>& raw) const { return affine(m_[kMag], raw, c_[kMag]); }
 
   // As apply(), but a raw reading that is not finite, or so large that the result is not, is
   // refused (kNonFiniteInput, outputs untouched): never kOk with a NaN or an infinity.
@@ -202,30 +189,93 @@ class Corrector {
 
   std::uint16_t parts() const { return parts_; }  // RecordPart bits: the calibrated sensors
   Bound bound() const { return bound_; }          // the bound the last refused set...() call broke
-  const Matrix3<Scalar>& accel_matrix_used() const { return acc_m_; }
-  const Vector3<Scalar>& accel_offset() const { return acc_c_; }
-  const Matrix3<Scalar>& gyro_matrix_used() const { return gyro_m_; }
-  const Vector3<Scalar>& gyro_offset() const { return gyro_c_; }
-  const Matrix3<Scalar>& mag_matrix_used() const { return mag_m_; }
-  const Vector3<Scalar>& mag_offset() const { return mag_c_; }
+  const Matrix3<Scalar>& accel_matrix_used() const { return m_[kAccel]; }
+  const Vector3<Scalar>& accel_offset() const { return c_[kAccel]; }
+  const Matrix3<Scalar>& gyro_matrix_used() const { return m_[kGyro]; }
+  const Vector3<Scalar>& gyro_offset() const { return c_[kGyro]; }
+  const Matrix3<Scalar>& mag_matrix_used() const { return m_[kMag]; }
+  const Vector3<Scalar>& mag_offset() const { return c_[kMag]; }
 
  private:
+  // The sensors, sensor k's RecordPart bit being 1 << k; the first two have temperature models.
+  static constexpr int kAccel = 0, kGyro = 1, kMag = 2, kSensors = 3, kTemperatureSensors = 2;
+  static_assert(kRecordAccel == 1u << kAccel && kRecordGyro == 1u << kGyro &&
+                    kRecordMag == 1u << kMag,
+                "sensor k's part bit");
+
+  // The temperature model as set_temperature() applies it: per sensor (accelerometer, gyro) the
+  // bias b(T) = b0 + d (b1 + d b2), d = T - T0, in raw units (temperature_model.hpp).
+  struct Model {
+    Scalar b[kTemperatureSensors][3][3];  // [sensor][b0, b1, b2][axis]
+    Scalar reference, min, max;           // T0 and the range fitted (deg C)
+    std::uint8_t sensors;                 // bit k: sensor k's biases follow the temperature
+  };
+
   Status refuse(Bound b) {
     bound_ = b;
     return b == Bound::kNonFinite ? Status::kNonFiniteInput : Status::kImplausible;
   }
 
-  // c = M b in the calibration's own precision (M a_raw and c nearly cancel on raw counts),
-  // then rounded once; refused (nothing changed) unless every entry is finite.
+  // Sensor k of `to` gets M = m_in and c = M b, c in the calibration's own precision (M a_raw
+  // and c nearly cancel on raw counts), then rounded once; refused (nothing changed) unless every
+  // entry is finite. b: the 3 values of the bias.
   template <typename From>
-  static bool load(const Matrix3<From>& m_in, const Vector3<From>& b, Matrix3<Scalar>& m_out,
-                   Vector3<Scalar>& c_out) {
+  static bool load(const Matrix3<From>& m_in, const From* b, Corrector& to, int k) {
     const Matrix3<Scalar> m = m_in.template cast<Scalar>();
-    const Vector3<Scalar> c = (m_in * b).template cast<Scalar>();
-    if (!((m - m).sum() + (c - c).sum() == Scalar(0))) return false;
-    m_out = m;
-    c_out = c;
+    const Vector3<Scalar> c = (m_in * Eigen::Map<const Vector3<From>>(b)).template cast<Scalar>();
+    if (!bounds::finite(m.data(), 9) || !bounds::finite(c.data(), 3)) return false;
+    to.m_[k] = m;
+    to.c_[k] = c;
+    to.parts_ = static_cast<std::uint16_t>(to.parts_ | (1u << k));
     return true;
+  }
+
+  // The model's bound (temperature_model_bound), in the corrector's precision.
+  template <typename From>
+  static Bound model_bound(const TemperatureModel<From>& t, const Model& cast,
+                           const Matrix3<Scalar>* accel_m, const Matrix3<Scalar>* gyro_m) {
+    if constexpr (std::is_same<From, Scalar>::value) {
+      return temperature_model_bound(t, accel_m, gyro_m);  // `cast` holds the same values
+    } else {
+      TemperatureModel<Scalar> m;
+      m.reference_c = cast.reference;
+      m.min_c = cast.min;
+      m.max_c = cast.max;
+      TemperatureBias<Scalar>* const out[kTemperatureSensors] = {&m.accel, &m.gyro};
+      for (int k = 0; k < kTemperatureSensors; ++k) {
+        if (!(cast.sensors & (1u << k))) continue;
+        out[k]->status = Status::kOk;
+        for (int i = 0; i < 3; ++i) {
+          out[k]->b0(i) = cast.b[k][0][i];
+          out[k]->b1(i) = cast.b[k][1][i];
+          out[k]->b2(i) = cast.b[k][2][i];
+        }
+      }
+      return temperature_model_bound(m, accel_m, gyro_m);
+    }
+  }
+
+  // The offsets c = M b(t) of the sensors whose biases follow the model (the others keep theirs),
+  // t clamped to the model's range (not extrapolated); kAccelOffset or kGyroOffset for one that
+  // is not finite.
+  Bound offsets(const Model& model, Scalar& t, Vector3<Scalar> c[kTemperatureSensors]) const {
+    t = t < model.min ? model.min : (t > model.max ? model.max : t);
+    const Scalar d = t - model.reference;
+    for (int k = 0; k < kTemperatureSensors; ++k) {
+      c[k] = c_[k];
+      if (!(model.sensors & (1u << k))) continue;
+      const Scalar(&b)[3][3] = model.b[k];
+      Vector3<Scalar> v;
+      for (int i = 0; i < 3; ++i) v(i) = b[0][i] + d * (b[1][i] + d * b[2][i]);
+      c[k].noalias() = m_[k] * v;
+      if (!bounds::finite(c[k].data(), 3))
+        return k == kAccel ? Bound::kAccelOffset : Bound::kGyroOffset;
+    }
+    return Bound::kNone;
+  }
+  void commit(const Vector3<Scalar> c[kTemperatureSensors], Scalar t) {
+    for (int k = 0; k < kTemperatureSensors; ++k) c_[k] = c[k];
+    temperature_c_ = t;
   }
 
   // out = m x + c, written out: Eigen's 3x3 product becomes an out-of-line call once a program
@@ -247,24 +297,9 @@ class Corrector {
     return out;
   }
 
-  template <typename From>
-  static TemperatureBias<Scalar> cast_bias(const TemperatureBias<From>& b) {
-    TemperatureBias<Scalar> o;
-    o.b0 = b.b0.template cast<Scalar>();
-    o.b1 = b.b1.template cast<Scalar>();
-    o.b2 = b.b2.template cast<Scalar>();
-    o.b0_sigma = b.b0_sigma.template cast<Scalar>();
-    o.b1_sigma = b.b1_sigma.template cast<Scalar>();
-    o.b2_sigma = b.b2_sigma.template cast<Scalar>();
-    const bool finite =
-        ((o.b0 - o.b0).sum() + (o.b1 - o.b1).sum() + (o.b2 - o.b2).sum()) == Scalar(0);
-    o.status = finite ? Status::kOk : Status::kNonFiniteInput;
-    return o;
-  }
-
-  Matrix3<Scalar> acc_m_, gyro_m_, mag_m_;
-  Vector3<Scalar> acc_c_, gyro_c_, mag_c_;
-  TemperatureModel<Scalar> temperature_{};
+  Matrix3<Scalar> m_[kSensors];  // M per sensor (Sensor order)
+  Vector3<Scalar> c_[kSensors];  // c per sensor
+  Model model_{};
   Scalar temperature_c_ = Scalar(0);
   std::uint16_t parts_ = 0;
   Bound bound_ = Bound::kNone;

@@ -101,17 +101,25 @@ template <typename Scalar>
 bool within(Scalar x, double limit) {
   return x <= static_cast<Scalar>(limit) && x >= -static_cast<Scalar>(limit);
 }
-// The limit converted where it is a constant, not in the call: at -Os the call is not inlined,
-// and a double argument would be converted at run time (soft double on a single-precision FPU).
-template <typename Scalar>
-bool vector_within(const Vector3<Scalar>& v, Scalar limit) {
-  return v(0) <= limit && v(0) >= -limit && v(1) <= limit && v(1) >= -limit && v(2) <= limit &&
-         v(2) >= -limit;
-}
 template <typename Scalar>
 bool magnitude_in(Scalar x, double lo, double hi) {
   const Scalar a = x < Scalar(0) ? -x : x;
   return a >= static_cast<Scalar>(lo) && a <= static_cast<Scalar>(hi);
+}
+// Every one of v[0, n) finite: one function for every length.
+template <typename Scalar>
+bool finite(const Scalar* v, int n) {
+  return all_finite(Eigen::Map<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>(v, n));
+}
+// |(m v)_i| <= limit for each row i (v: 3 values), false for NaN. The limit is converted where it
+// is a constant, not in the call: at -Os the call is not inlined, and a double argument would be
+// converted at run time (soft double on a single-precision FPU).
+template <typename Scalar>
+bool product_within(const Matrix3<Scalar>& m, const Scalar* v, Scalar limit) {
+  const Vector3<Scalar> x = m * Eigen::Map<const Vector3<Scalar>>(v);
+  for (int i = 0; i < 3; ++i)
+    if (!(x(i) <= limit && x(i) >= -limit)) return false;
+  return true;
 }
 
 }  // namespace bounds
@@ -125,16 +133,15 @@ bool temperature_plausible(Scalar t) {
 // The accelerometer's nine parameters (accel_model.hpp).
 template <typename Scalar>
 Bound accel_bound(const AccelVector<Scalar>& p) {
-  if (!all_finite(p)) return Bound::kNonFinite;
+  if (!bounds::finite(p.data(), kAccelParams)) return Bound::kNonFinite;
   for (int i = kScaleX; i <= kScaleZ; ++i)
     if (!(p(i) >= static_cast<Scalar>(bounds::kMinAccelScale) &&
           p(i) <= static_cast<Scalar>(bounds::kMaxAccelScale)))
       return Bound::kAccelScale;
   for (int i = kAlphaYz; i <= kAlphaZx; ++i)
     if (!bounds::within(p(i), bounds::kMaxMisalignment)) return Bound::kAccelMisalignment;
-  const Vector3<Scalar> b(p(kBiasX), p(kBiasY), p(kBiasZ));
-  if (!bounds::vector_within<Scalar>(accel_matrix(p) * b,
-                                     static_cast<Scalar>(bounds::kMaxAccelOffset)))
+  if (!bounds::product_within(accel_matrix(p), p.data() + kBiasX,
+                              static_cast<Scalar>(bounds::kMaxAccelOffset)))
     return Bound::kAccelOffset;
   return Bound::kNone;
 }
@@ -142,15 +149,14 @@ Bound accel_bound(const AccelVector<Scalar>& p) {
 // The gyro's twelve parameters (gyro_model.hpp).
 template <typename Scalar>
 Bound gyro_bound(const GyroVector<Scalar>& p) {
-  if (!all_finite(p)) return Bound::kNonFinite;
+  if (!bounds::finite(p.data(), kGyroParams)) return Bound::kNonFinite;
   for (int i = kGyroScaleX; i <= kGyroScaleZ; ++i)
     if (!bounds::magnitude_in(p(i), bounds::kMinGyroScale, bounds::kMaxGyroScale))
       return Bound::kGyroScale;
   for (int i = kGammaYz; i <= kGammaYx; ++i)
     if (!bounds::within(p(i), bounds::kMaxMisalignment)) return Bound::kGyroMisalignment;
-  const Vector3<Scalar> b(p(kGyroBiasX), p(kGyroBiasY), p(kGyroBiasZ));
-  if (!bounds::vector_within<Scalar>(gyro_matrix<Scalar>(p) * b,
-                                     static_cast<Scalar>(bounds::kMaxGyroOffset)))
+  if (!bounds::product_within(gyro_matrix<Scalar>(p), p.data() + kGyroBiasX,
+                              static_cast<Scalar>(bounds::kMaxGyroOffset)))
     return Bound::kGyroOffset;
   return Bound::kNone;
 }
@@ -158,12 +164,12 @@ Bound gyro_bound(const GyroVector<Scalar>& p) {
 // The magnetometer's soft iron S (uT per raw unit), hard iron h (raw units) and field (uT).
 template <typename Scalar>
 Bound mag_bound(const Matrix3<Scalar>& s, const Vector3<Scalar>& h, Scalar field_ut) {
-  if (!all_finite(s.reshaped()) || !all_finite(h) || !all_finite(field_ut))
+  if (!bounds::finite(s.data(), 9) || !bounds::finite(h.data(), 3) || !all_finite(field_ut))
     return Bound::kNonFinite;
   for (int i = 0; i < 9; ++i)
     if (!bounds::within(s(i), bounds::kMaxSoftIron)) return Bound::kMagSoftIron;
   if (!(s.determinant() > Scalar(0))) return Bound::kMagSoftIron;
-  if (!bounds::vector_within<Scalar>(s * h, static_cast<Scalar>(bounds::kMaxMagOffset)))
+  if (!bounds::product_within(s, h.data(), static_cast<Scalar>(bounds::kMaxMagOffset)))
     return Bound::kMagOffset;
   if (!(field_ut > Scalar(0) && field_ut <= static_cast<Scalar>(bounds::kMaxFieldUt)))
     return Bound::kMagField;
@@ -174,19 +180,20 @@ Bound mag_bound(const Matrix3<Scalar>& s, const Vector3<Scalar>& h, Scalar field
 template <typename Scalar>
 Bound temperature_bias_bound(const TemperatureBias<Scalar>& b, const Matrix3<Scalar>& m,
                              bool accel) {
-  if (!all_finite(b.b0) || !all_finite(b.b1) || !all_finite(b.b2)) return Bound::kNonFinite;
-  const Bound offset = accel ? Bound::kAccelOffset : Bound::kGyroOffset;
-  const Bound slope = accel ? Bound::kAccelSlope : Bound::kGyroSlope;
-  if (!bounds::vector_within<Scalar>(m * b.b0, accel ? static_cast<Scalar>(bounds::kMaxAccelOffset)
-                                                     : static_cast<Scalar>(bounds::kMaxGyroOffset)))
-    return offset;
-  if (!bounds::vector_within<Scalar>(m * b.b1, accel ? static_cast<Scalar>(bounds::kMaxAccelSlope)
-                                                     : static_cast<Scalar>(bounds::kMaxGyroSlope)))
-    return slope;
-  if (!bounds::vector_within<Scalar>(m * b.b2,
-                                     accel ? static_cast<Scalar>(bounds::kMaxAccelCurvature)
-                                           : static_cast<Scalar>(bounds::kMaxGyroCurvature)))
-    return slope;
+  if (!bounds::finite(b.b0.data(), 3) || !bounds::finite(b.b1.data(), 3) ||
+      !bounds::finite(b.b2.data(), 3))
+    return Bound::kNonFinite;
+  // The offset, the slope and the curvature of the bias through m, each within its limit.
+  const Scalar limits[2][3] = {
+      {static_cast<Scalar>(bounds::kMaxGyroOffset), static_cast<Scalar>(bounds::kMaxGyroSlope),
+       static_cast<Scalar>(bounds::kMaxGyroCurvature)},
+      {static_cast<Scalar>(bounds::kMaxAccelOffset), static_cast<Scalar>(bounds::kMaxAccelSlope),
+       static_cast<Scalar>(bounds::kMaxAccelCurvature)}};
+  const Scalar* const terms[3] = {b.b0.data(), b.b1.data(), b.b2.data()};
+  for (int k = 0; k < 3; ++k)
+    if (!bounds::product_within(m, terms[k], limits[accel][k]))
+      return k == 0 ? (accel ? Bound::kAccelOffset : Bound::kGyroOffset)
+                    : (accel ? Bound::kAccelSlope : Bound::kGyroSlope);
   return Bound::kNone;
 }
 
