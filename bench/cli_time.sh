@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Whole-process time of `imucal calibrate` on the xsens recording (two 3.3 MB text files, parsing
 # included): the median of N runs (default 21) of the built tool, float and double.
 #   bench/cli_time.sh [RUNS]     (after `cmake --build --preset host`)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Field calibrators side by side on every simulated life (bench/field/README.md): each life runs
 # through every estimator this build has (imucal's when bench/field/imucal_estimator.cpp exists,
 # Android's CHRE when its sources are in ../shared/peers/chre-calibration, the oracle) and the

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Where imucal's text goes in one footprint program: its functions grouped by part, as a
 Markdown table. The share is the program's text minus the baseline program's (the same I/O
 without imucal, bench/footprint/footprint.cpp), as bench/footprint_parts.sh reports it. Every

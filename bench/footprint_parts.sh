@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # What a firmware pays for the parts it links: text, data and bss of imucal's share (each program
 # minus the same program without imucal, bench/footprint/footprint.cpp) for each set of parts, on
 # the given targets (Arm, rv32) and optimisation levels, as a Markdown table. Every program is also

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Where a benchmark's instructions go, by source line: runs an instruction-count program under
 QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the instructions
 of the functions whose names match FUNCTIONS by the project's source line they come from (code

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Instruction counts of the benchmark regions on one Arm or RISC-V target, as a Markdown table.
 # Usage: bench/run_insn_bench.sh PRESET [BUILD_DIR]
 #   PRESET: m4f, m7, m33, m3, m0plus or rv32 (the machine QEMU emulates); BUILD_DIR: where the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # imucal against imu_tk (the paper's own toolkit) on the Xsens recording, side by side in one
 # paired run: each round runs both programs back to back (the order alternating), and the figure
 # is the median of the per-round ratios of wall time, with both programs' peak RSS.

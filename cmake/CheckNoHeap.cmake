@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # cmake -DNM=... -DSIZE=... -DELF=... [-DBASELINE=...] -P CheckNoHeap.cmake
 # Fails if the program links any heap or exception-allocation symbol; prints its sizes and, with
 # a baseline program, imucal's own share of them.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # GoogleTest built from Debian's source (/usr/src/googletest) for bare-metal Arm or RISC-V with
 # picolibc: no exceptions, RTTI, threads, POSIX regex or stream redirection. Provides
 # GTest::gtest_main.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """The command's memory does not grow with its input.
 
   cli_bounded_memory.py IMUCAL RECORDING.csv [GIGABYTES]

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # The command's edges that need a process of its own: a stdout that cannot be written, and
 # inputs that never end or are far larger than what they can be.
 #   cli_edges.sh IMUCAL RECORDING.csv

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # imucal out of memory: exit 2 with the reason on stderr, never an abort. An endless stream on
 # stdin under a 160 MB address-space limit (not run under AddressSanitizer, which reserves more).
 #   cli_out_of_memory.sh IMUCAL

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # A firmware that only loads and applies a stored calibration compiles the record, the store and
 # the corrector: none of the calibrator's, the solvers' or the stillness detector's headers.
 #   load_and_apply_headers.sh CXX EIGEN_INCLUDE_DIR SOURCE_DIR

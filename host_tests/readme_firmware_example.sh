@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: MIT
 # The README's firmware example is the example firmware's own code: every line of its C++ block
 # (under "## In a firmware") is a line of examples/firmware/main.cpp, leading blanks aside; lines
 # that are only a comment are the README's own headings.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Accelerometer calibration against a simulator with known truth: the closed-form start, the
 // LM estimate within 3 sigma, sigma that matches the real scatter, float against double, and a
 // specific status for every kind of degenerate input.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The seed's analytic Jacobian of e = |g|^2 - |T K (a + b)|^2, and that of the calibrated gravity
 // direction, against central differences.
 #include <gtest/gtest.h>

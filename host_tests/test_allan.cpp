@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Allan variance and the noise-term fit (allan.hpp) against simulated noise of known truth:
 // white noise, rate random walk, angle quantisation and flicker (bias instability), float and
 // double, the streaming accumulator against the overlapping estimate on the same samples, bad

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The streaming calibrator on simulated full-motion recordings with known truth (rests, hand
 // turns about changing axes with coning, noise, bias, sample-rate jitter): both calibrations
 // within 3 sigma, float and double; the stream's bad cases each with their status.

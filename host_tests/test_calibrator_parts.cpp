@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The streaming calibrator's parts (include/imucal/calibrator/), each on its own: the move store
 // and its coarsening, the pose collection with coverage and hints, and the solve sequence (the
 // stream layer's parts are in test_stream.cpp). Float, the device's type, on every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The `imucal` tool (host only): its readers on well-formed and malformed input, its options,
 // the round trip simulate -> calibrate against the truth, the C header compiled and applied, and
 // the xsens recording through the command (float and double).

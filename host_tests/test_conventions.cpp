@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // docs/conventions.md, checked: each peer's calibration formula written as that peer states it
 // (imu_tk's CalibratedTriad, x-io Fusion's FusionCalibrationInertial / FusionCalibrationMagnetic,
 // Kalibr's scale-misalignment measurement model, Magneto's A^-1 (m - b)), fed with imucal's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The apply path: the precomputed 3x3 multiply-add per sensor equals the model (accel_apply,
 // gyro_apply in double) to float rounding on raw 16-bit counts; parts without a calibration pass
 // through; a calibration with a NaN is not loaded; apply_checked refuses NaN readings.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A real interrupt applies the corrector while the main loop swaps calibrations (cross targets
 // only: SysTick on the simulated Arm boards, the machine timer on RISC-V's virt). With
 // CorrectorSwap every sample the interrupt corrects matches exactly one of the two calibrations,

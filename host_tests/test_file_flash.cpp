@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The file-backed flash port (host): NOR semantics on a file, and a record saved by one run of a
 // program read back by the next (the file is the device's flash across reboots).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The gyro run (math.md section 4) on segment statistics: the analytic Jacobian against central
 // differences, recovery of a known M and bias from exact and noisy moves, the scale search, the
 // time slicing, the statuses for too little data, and the sigma the inputs held fixed add.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Gyro segment statistics (math.md section 4) against the exact identity for re-evaluating the
 // bias and matrix, and against a 4th-order Runge-Kutta quaternion reference on a coning move.
 #include <gtest/gtest.h>

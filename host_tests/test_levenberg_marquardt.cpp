@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The LM driver on problems with known minima: convergence, time slicing, stopping reasons.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The life simulator (sim/life_sim.hpp) that the field bench runs calibrators on: its truth is
 // consistent with its raw stream (still means, the models, the bias curves and walks, the
 // counts' saturation, the steady turns, the events), and a seed gives one stream.

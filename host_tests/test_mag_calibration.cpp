@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Magnetometer calibration (mag_calibration.hpp) against the simulator's known truth
 // (sim/mag_sim.hpp): hard and soft iron within 3 sigma, honest sigmas, float against double,
 // refusals with their reason (coverage, too few samples, field strength, non-finite input), the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The incremental normal-equations accumulator against batch least squares, its covariance
 // against Monte Carlo, and its refusals (singular systems, non-finite rows).
 #include <gtest/gtest.h>

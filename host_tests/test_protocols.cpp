@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The protocols people record, each with default settings: initial rests from none to a minute,
 // rests held in the hand, 1 s rests, 10 and 50 poses, high rates on a warming board, and an
 // accelerometer without a gyro. Each must recover the simulator's truth within 3 sigma, in float

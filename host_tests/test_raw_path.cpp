@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The integer path: 16-bit counts in (add_raw(), add_fifo()), integer sums per sample, the float
 // work once a sub-block. Against the float path (add()) on the same counts: the sub-block's sums
 // alike to rounding, a FIFO batch as its frames one by one, and the whole calibration on the real

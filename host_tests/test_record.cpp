@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The calibration record: round trip, the pinned version-1 bytes, every single-byte corruption
 // and every truncation detected, each field validated, and records of a grown format decoding.
 #include <gtest/gtest.h>

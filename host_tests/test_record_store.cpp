@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The two-slot record store: save and load, sequence numbers that wrap, a corrupt or unreadable
 // slot falling back to the other; and, on a simulated flash with ECC that fails like real parts
 // (sim_ecc_flash.hpp), a power cut or a reported failure at every program and erase step for

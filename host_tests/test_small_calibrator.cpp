@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The small configuration (imucal/calibrator/small.hpp) on every target: its size holds to the
 // 12 KiB a 32 KB part can spare, and on the xsens recording (16-bit counts through add_raw(), as a
 // small part's driver hands them over) its parameters agree with the default calibrator's within

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The stillness detector on its own: the float log2/exp2 its move level runs on (and the log/exp
 // of the gyro scale search), the gyro
 // threshold that follows the moves, and glitches refused without a trace. On every target: the

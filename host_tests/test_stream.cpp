@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The stream layer (include/imucal/stream/), each part on its own: the ring, the initial rest's
 // window, the front end's checks, blocks and the delay line, the segmenter, and the rest monitor
 // built from them. Float, the device's type, on every target; the rest monitor also in double.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bad sensors and bad streams, each with its status and its count, and a calibration afterwards
 // within 3 sigma of the truth (what was collected before the fault is kept); then the long run:
 // a 24-hour rest at 1 kHz whose pose mean stays exact in float.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The temperature model of the biases (temperature_fit.hpp) and the field rest detector
 // (rest_monitor.hpp) on simulated drifts with known truth (sim/temperature_sim.hpp): recovery
 // within 3 sigma (linear and quadratic, float and double, exact and offset base), honest sigmas

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The real xsens recording (raw 16-bit counts): still poses found offline, calibrated in float and
 // double, judged by the per-sample gravity-norm residual over every still sample.
 #include <gtest/gtest.h>

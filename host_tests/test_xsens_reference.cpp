@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Host only: the streaming float calibrator against the independent double-precision reference
 // (every raw sample kept, rests found offline with centred windows, gyro integrated with RK4 on
 // quaternions, numeric Jacobians) on the real xsens recording: the same rests, and every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The real xsens recording (raw 16-bit counts, 100 Hz with jitter) end to end through the
 // streaming float calibrator, one sample at a time, as on the device: the accelerometer's
 // per-sample gravity-norm residual over every pose sample, and the gyro's per-move angle between

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Accelerometer calibration: pose checks, closed-form ellipsoid start, normalised LM, and the
 // mapping back to sensor units. Instantiated for float (device) and double (reference).
 #include "imucal/solve/accel_calibration.hpp"

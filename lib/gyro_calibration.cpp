@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "imucal/solve/gyro_calibration.hpp"
 
 namespace imucal {

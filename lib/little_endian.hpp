@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lib/little_endian.hpp: byte order of the stored formats (record.cpp, record_store.cpp): every
 // integer little-endian whatever the CPU's. Internal to the library.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Magnetometer calibration: closed-form ellipsoid start, geometric Levenberg-Marquardt refinement
 // with sigmas, the coverage / field / fit checks, and the alignment to the accelerometer frame.
 // Instantiated for float (device) and double (reference).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // lib/quadric.hpp: the algebraic quadric x^T Q x + u^T x = 1 that both closed-form ellipsoid
 // starts fit by linear least squares (accelerometer poses, magnetometer samples): one row of it,
 // and Q and u from the solution. Internal to the library.

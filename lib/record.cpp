@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The calibration record's encoder and validating decoder (format:
 // include/imucal/store/record.hpp). One table of each section's fields (kInfoFields, ...) serves
 // both: the decoder reads and checks through it, the encoder writes.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The two-slot record store (include/imucal/store/record_store.hpp).
 #include "imucal/store/record_store.hpp"
 

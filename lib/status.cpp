@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "imucal/status.hpp"
 
 // 1: to_string(Status) gives the description; 0: the number (status.hpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Temperature model of the accelerometer's and gyro's added bias: fixed-memory accumulation of
 // rests and the linear solves (see temperature_fit.hpp for the equations). Instantiated for
 // float (device) and double (reference).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // python/imucal_module.cpp: `imucal._imucal`, the compiled part of the `imucal` Python package
 // (pybind11; the typed API over it is python/imucal/__init__.py, its stub _imucal.pyi). numpy
 // arrays and the command's options in, what `imucal calibrate` and `imucal noise` print and write

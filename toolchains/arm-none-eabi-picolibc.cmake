@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Common part of the Cortex-M toolchain files: arm-none-eabi GCC with picolibc, semihosting
 # start-up from picolibc (vector table, FPU enable, exit code), and qemu-system-arm as the
 # CMAKE_CROSSCOMPILING_EMULATOR so that ctest runs every test binary under simulation.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cortex-M0+ (ARMv6-M, no FPU: soft float). QEMU has no Cortex-M0+ board with enough RAM; the
 # ARMv6-M binaries run on mps2-an385's Cortex-M3 (ARMv6-M is a subset of ARMv7-M).
 set(IMUCAL_CPU_FLAGS "-mcpu=cortex-m0plus -mthumb -mfloat-abi=soft")

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cortex-M3 (ARMv7-M, no FPU: soft float), simulated by qemu-system-arm -M mps2-an385.
 set(IMUCAL_CPU_FLAGS "-mcpu=cortex-m3 -mthumb -mfloat-abi=soft")
 set(IMUCAL_QEMU_MACHINE mps2-an385)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cortex-M33 (single-precision FPU, secure state), simulated by qemu-system-arm -M mps2-an505.
 set(IMUCAL_CPU_FLAGS "-mcpu=cortex-m33 -mthumb -mfpu=fpv5-sp-d16 -mfloat-abi=hard")
 set(IMUCAL_QEMU_MACHINE mps2-an505)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cortex-M4F (single-precision FPU), simulated by qemu-system-arm -M mps2-an386.
 set(IMUCAL_CPU_FLAGS "-mcpu=cortex-m4 -mthumb -mfpu=fpv4-sp-d16 -mfloat-abi=hard")
 set(IMUCAL_QEMU_MACHINE mps2-an386)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Cortex-M7 (double-precision FPU), simulated by qemu-system-arm -M mps2-an500.
 set(IMUCAL_CPU_FLAGS "-mcpu=cortex-m7 -mthumb -mfpu=fpv5-d16 -mfloat-abi=hard")
 set(IMUCAL_QEMU_MACHINE mps2-an500)

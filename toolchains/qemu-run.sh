@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Runs a bare-metal ELF under QEMU with semihosting and returns its exit code.
 # Used as CMAKE_CROSSCOMPILING_EMULATOR: qemu-run.sh [SYSTEM:]MACHINE PROGRAM.elf [ARGS...]
 # SYSTEM picks qemu-system-SYSTEM: arm (the default; Cortex-M boards) or riscv32 (virt, started

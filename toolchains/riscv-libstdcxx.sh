@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Builds libstdc++ (static, single-threaded) for one bare-metal RISC-V multilib with picolibc as
 # its C library, from Debian's GCC source (package gcc-12-source: the source Debian builds
 # riscv64-unknown-elf-gcc 12.2.0 from). Debian 12 ships the RISC-V compiler and picolibc but no

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # Common part of the RISC-V toolchain files: riscv64-unknown-elf GCC with picolibc, semihosting
 # start-up from picolibc (trap handler, .data/.bss set-up, exit code, argv), and
 # qemu-system-riscv32 as the CMAKE_CROSSCOMPILING_EMULATOR so that ctest runs every test binary

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # RV32IMAC (no FPU: soft float), simulated by qemu-system-riscv32 -M virt. virt has its RAM at
 # 0x80000000 and no flash: the program is loaded into the first 4 MB of RAM, its data and stack
 # use the next 4 MB (the same sizes as the Arm boards).

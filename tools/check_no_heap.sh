@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Proves "no heap" at link time at every optimisation level: for each target and level, a small
 # build of only the footprint program (bench/footprint: the whole API in float), compiled once
 # into fat LTO objects and linked twice, without and with -flto. cmake/CheckNoHeap.cmake fails

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # The main job: set up the host packages (tools/setup_debian.sh host: no cross toolchain, QEMU or
 # GCC source), build the `imucal` command, and calibrate the bundled simulated recording (raw
 # 16-bit counts, hand-turned poses, known truth) with the float streaming calibrator, as on the

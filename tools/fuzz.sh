@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Fuzzes the `imucal` tool's readers, then the calibration record decoder and store, with
 # libFuzzer (clang, with AddressSanitizer and UndefinedBehaviorSanitizer) for a bounded time:
 # tools/fuzz.sh [SECONDS] (default 60; both targets at once, one core each).

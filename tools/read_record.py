@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Reads an imucal calibration record (format version 1, docs/record_format.md) with the Python
 standard library alone: what a test bench or a production line needs to check what a device
 stored.

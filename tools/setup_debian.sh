@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Installs what imucal needs on Debian 12, by set, or the named packages (the benchmarks'):
 #   host    the host build and its tests (preset host): the library, the `imucal` command, the
 #           Python package (and its pip install, offline, with mypy for its types), GoogleTest,

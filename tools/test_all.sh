@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Every test: set up, check formatting, then build and run the test suite on the host (plain,
 # then built by Clang with ASan + UBSan) and, cross-built, on Cortex-M4F, M7, M33, M3 and M0+
 # under qemu-system-arm and on RV32IMAC under qemu-system-riscv32 (ctest with the emulator). The
@@ -30,8 +31,9 @@ if command -v ccache >/dev/null; then
   export CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
 fi
 
-step "clang-format"
+step "clang-format, licence identifiers"
 git ls-files '*.hpp' '*.cpp' '*.c' | xargs clang-format --dry-run -Werror
+tools/check_spdx.sh
 
 # Where the real recording is beside the clone (always in CI), a test that cannot find it fails.
 require_xsens=OFF

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Builds tests/consumer (a project outside imucal) against imucal through add_subdirectory,
 # FetchContent and find_package after `cmake --install` into a temporary prefix, for the host and
 # for the Cortex-M4F (its own toolchain file), and runs it (M4F: under qemu-system-arm). Checks

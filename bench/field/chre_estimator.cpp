@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/chre_estimator.cpp: Android's CHRE calibration algorithms (the peer,
 // ../shared/peers/chre-calibration, built as the chre_calibration library) fed as a phone's
 // sensor hub feeds them: the counts scaled by the nominal scales only (rad/s, m/s^2, uT),

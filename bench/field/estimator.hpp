@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/estimator.hpp: what the field bench asks of a calibrator that runs on a life
 // (sim/life_sim.hpp): samples in, once a simulated second the corrections it would apply.
 // Host code (a bench, not the library): it may allocate.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/estimators.cpp: the estimators the field bench can run, by name.
 #include "estimator.hpp"
 

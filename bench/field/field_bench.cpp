@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/field_bench.cpp: runs simulated lives (sim/life_sim.hpp) through field
 // calibrators side by side and writes, per life, a markdown table of field.md section 7's
 // metrics (metrics.hpp) with the estimators in columns, and the same as JSON.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/metrics.cpp: the field bench's metrics (metrics.hpp).
 #include "metrics.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/metrics.hpp: how the field bench judges an estimator over a life (field.md
 // section 7). Once a simulated second, the error of the correction the device would apply,
 // |b_hat(t) - b(t)|, from the estimator's first estimate on: its median and 95th percentile,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/field/oracle_estimator.cpp: field.md section 7's lower reference. Told exactly when the
 // board is still (the truth), it averages the nominally scaled gyro over the true rest and holds
 // the last value until the next rest. The average is over the rest's last 10 s (or the whole

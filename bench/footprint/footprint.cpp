@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/footprint/footprint.cpp: a firmware-shaped program that uses the whole public API in
 // float (the accelerometer solver and the streaming calibrator), built optimised for each Arm
 // target. The build fails if it links any allocation symbol (cmake/CheckNoHeap.cmake), and prints

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/host/bench_host.cpp: Google Benchmark harness on the host, float (device type) and double
 // (reference): the accelerometer path on 40 simulated poses in raw counts, and the streaming
 // calibrator on a simulated recording (30 rests, raw counts): per sample, and the whole solve.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/bench_accel.cpp: instruction counts of the accelerometer path on the cross
 // targets (run by bench/run_insn_bench.sh under QEMU with the counting plugin). 40 simulated poses
 // in raw 16-bit counts, float, as on the device. Not a test: it reports, it does not judge.

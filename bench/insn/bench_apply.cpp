@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/bench_apply.cpp: instruction counts of keeping and applying a calibration on the cross
 // targets (bench/run_insn_bench.sh, QEMU with the counting plugin): the corrector per sample
 // (both sensors), building it, encoding and decoding the record, and the two-slot store's save

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/bench_mag.cpp: instruction counts of the magnetometer calibration on the cross
 // targets (bench/run_insn_bench.sh, QEMU with the counting plugin), float as on the device: the
 // per-sample collector over a simulated free-hand stream (60 s at 50 Hz, raw counts), the whole

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/bench_stream.cpp: instruction counts of the streaming calibrator on the cross
 // targets (bench/run_insn_bench.sh, QEMU with the counting plugin): the real xsens recording
 // (51,175 samples, raw counts) fed one sample at a time, each add() its own region, named by how

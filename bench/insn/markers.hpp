@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/markers.hpp: region markers for instruction counting under QEMU. The TCG plugin in
 // bench/qemu_plugin counts guest instructions executed from the entry of imucal_bench_begin to
 // the entry of imucal_bench_end; each region is announced on stdout first ("BENCH <name>").

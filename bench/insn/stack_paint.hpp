@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // bench/insn/stack_paint.hpp: maximum stack depth of calls, measured by painting the stack (Arm
 // Cortex-M with Thumb-2 and RV32, picolibc's memory layout; run under QEMU by
 // bench/run_insn_bench.sh). On ARMv6-M (Cortex-M0/M0+) the calls compile to nothing and no depth

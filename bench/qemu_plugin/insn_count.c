@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 /*
  * insn_count.c - QEMU TCG plugin: exact guest instruction count of code
  * regions delimited by two marker functions (imucal benchmarks).

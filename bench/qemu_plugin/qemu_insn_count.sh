@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # qemu_insn_count.sh - run a bare-metal (picolibc semihosting) ELF under
 # qemu-system-arm or qemu-system-riscv32 with the insn_count TCG plugin and
 # report exact instruction counts of the regions between calls to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // examples/firmware/main.cpp: imucal in a firmware, from raw samples to calibrated ones.
 // Collect (every raw sample into add(), progress out), solve in slices, save the record to
 // flash, reboot, load it, apply it. SimulatedImu stands in for the IMU driver and SimNorFlash

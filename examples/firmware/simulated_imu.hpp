@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // examples/firmware/simulated_imu.hpp: stands in for the IMU driver of the example firmware. A
 // device with a known distortion is held still, then turned between poses (one axis at a time,
 // a smooth rate profile) and held still again, sampled at 100 Hz with a little noise. Fixed

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support: the streaming calibrator on the simulator's recordings with known truth: the
 // scenario, its settings, streaming a recording, and the 3-sigma check of a calibration
 // (test_calibrator.cpp, test_stream_faults.cpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support: a calibration as the xsens recording gives (raw 16-bit counts), with sigmas,
 // quality, sample rate and temperature: the record, corrector and store tests share it (the
 // record test's pinned version-1 bytes encode exactly this).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support: GoogleTest prints imucal::Status by name.
 #pragma once
 

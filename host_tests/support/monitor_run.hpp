@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Runs a RestMonitor over a simulated stream (sim::TemperatureStream) and collects the rests it
 // hands out, each with the index of the true rest it came from; bad samples can be slipped in
 // along the way. Host and targets (header-only, GoogleTest assertions).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support (host only): the double-precision REFERENCE calibration, the yardstick for the
 // streaming float calibrator. It keeps every raw sample, finds the rests offline, calibrates the
 // accelerometer with the library's AccelSolver<double>, then the gyroscope with its own dense

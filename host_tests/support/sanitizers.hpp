@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // host_tests/support/sanitizers.hpp: IMUCAL_TEST_ASAN when the test is built with
 // AddressSanitizer (GCC says so with __SANITIZE_ADDRESS__, Clang with __has_feature). Tests that
 // repeat the same code paths for statistics or drift run fewer repetitions there: the sanitizer

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helper: simulated pose sets with known truth, in double and rounded to float.
 #pragma once
 

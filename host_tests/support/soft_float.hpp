@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // host_tests/support/soft_float.hpp: IMUCAL_TEST_SOFT_FLOAT is 1 on a target without a
 // floating-point unit, where every float and double operation is a library call (RV32 without
 // the F extension; Arm cores without an FPU: Cortex-M3, M0+), and 0 elsewhere. It comes from the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "support/xsens_reader.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support (host only): reads the imu_tk `t x y z` text format of the xsens recording, and
 // finds still intervals offline (imu_tk's rule: variance over a centred window against k times
 // the initial rest). A stand-in until the streaming detector exists; not library code.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test support: the streaming calibrator's settings for the xsens recording, said once for the
 // tests and the instruction benchmark (what the recording's README gives about it: the units and
 // gravity; the detector's settings are the defaults).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/corrector.hpp: the apply path. Built once from a calibration (or a decoded record), it
 // maps every raw sample to a calibrated one with one 3x3 multiply-add per sensor:
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/imucal.hpp: the umbrella header. imucal calibrates MEMS inertial sensors on the device:
 // fixed memory, float arithmetic, no heap, no exceptions, no RTTI, no blocking calls.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/status.hpp: the one status type every fallible imucal call returns, and what it means.
 // Never allocates, never throws; to_string() returns a static string.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/types.hpp: the types every part of imucal shares: fixed-size vectors, one raw sample of
 // an IMU, and the finiteness test every input check uses. Header-only, no allocation.
 #pragma once

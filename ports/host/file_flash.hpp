@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // ports/host/file_flash.hpp: a flash region backed by a file on the host (the `imucal` tool,
 // tests, a desktop build of the firmware). The file holds the region's bytes and behaves as NOR
 // flash: erase writes 0xFF over an erase unit, program ANDs the bits in, a program call writes

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 /* ports/qemu-mps2/posix_stubs.c: the two POSIX calls GoogleTest references that picolibc's
  * semihosting layer does not provide. Test binaries only; the library never needs them. */
 #include <errno.h>

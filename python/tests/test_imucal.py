@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """The imucal Python package against the imucal command: the same calibration, bit for bit in the
 JSON, on the bundled recording and on the Xsens recording; the noise; the record codec and the
 corrector; the memory calibrate() keeps."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # The consumer's own toolchain file: Cortex-M4F, arm-none-eabi GCC with picolibc, semihosting
 # start-up, the memory map of qemu-system-arm's mps2-an386.
 set(CMAKE_SYSTEM_NAME Generic)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A consumer of imucal: solves an accelerometer calibration from twelve poses, keeps it in a
 // (simulated) flash through the record store, loads it back and applies it. Also runs a
 // dynamically sized Eigen product of its own, which must work: imucal's EIGEN_NO_MALLOC is not

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the `imucal` tool's readers (CSV, or an imu_tk pair split at the first NUL)
 // and the settings they carry. Whatever the bytes, the reader must not crash, and every record
 // it returns must be finite (NaN only for a sensor the input lacks) with strictly increasing time;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the calibration record decoder and the two-slot store over arbitrary flash
 // contents. Whatever the bytes: no crash, no read outside them (ASan), and a record that decodes
 // holds only finite values within their physical bounds, re-encodes, and decodes again to the

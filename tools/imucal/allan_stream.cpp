@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/allan_stream.cpp: see allan_stream.hpp.
 #include "allan_stream.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/allan_stream.hpp: the overlapping Allan variance of a stream of any length in
 // bounded memory, one sample at a time (the host's `imucal noise`). Host only.
 //

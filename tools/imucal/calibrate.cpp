@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/calibrate.cpp: `imucal calibrate` and `imucal report`: the recording through the
 // same streaming calibrator as on the device (float, or double with --double), then the
 // residuals before and after, the summary, and the requested outputs.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/cli.cpp: the subcommands and the help text.
 #include "cli.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/cli.hpp: the `imucal` command line (host only).
 //   imucal calibrate [options] FILE...   calibrate a recording (CSV, imu_tk pair, or - for stdin)
 //   imucal report -o PAGE.svg [options] FILE...   the same, plus the picture page

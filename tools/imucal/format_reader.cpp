@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/format_reader.cpp: what the format readers share: the time of a sample, the
 // columns' names, the text files' lines, comments and fields.
 #include "format_reader.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/format_reader.hpp: one reader per input format, behind SampleReader (host only):
 // imucal CSV (a header line naming the columns, or the names given for a file without one),
 // imu_tk's two `t x y z` files, and samples already in memory (the Python package's arrays).

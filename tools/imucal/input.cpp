@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/input.cpp: line reading, field splitting, the CSV and imu_tk readers.
 #include "input.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/input.hpp: the `imucal` tool's input (host only, not library code): lines,
 // fields and numbers, and the samples of an input whatever its format (SampleReader; the
 // formats' readers are in format_reader.hpp).

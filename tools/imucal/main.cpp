@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/main.cpp: the `imucal` command (see cli.hpp).
 #include <unistd.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/noise.cpp: `imucal noise`: the noise of a still recording, per sensor and axis,
 // from its overlapping Allan deviation (imucal/noise/allan.hpp): the fitted quantisation, white
 // noise (noise density), bias instability and random walk with their sigmas, the classic read-outs,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/options.cpp: the calibrate/report options, from the command line and from
 // `# imucal: key=value` comments in the input (the command line wins).
 #include <charconv>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/outputs.cpp: what `imucal calibrate` writes: the summary, the JSON, the C header,
 // the comparison with a truth file; and the text and file helpers the commands share.
 #include "outputs.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/outputs.hpp: what `imucal calibrate` writes: the summary, the JSON record of the
 // run, the C header for firmware, the comparison with a simulator's truth file.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/read_arrays.cpp: samples in memory (the Python package's arrays), read where they
 // are, as a CSV file of the same columns would be.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/read_csv.cpp: the imucal CSV reader: the columns named by a header line or given,
 // then one sample per line, field by field only where the one-pass read declines a line.
 #include <cmath>

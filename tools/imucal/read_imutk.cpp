@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/read_imutk.cpp: imu_tk's two files of `t x y z` lines, the accelerometer's and
 // the gyroscope's, paired by timestamp.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/record.cpp: `imucal record`: a stored calibration record (calibrate --record, or a
 // flash slot's bytes), decoded and printed.
 #include "imucal/store/record.hpp"

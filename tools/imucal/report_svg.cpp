@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg.cpp: the `imucal` tool's SVG report page (host only).
 //
 // One self-contained SVG (no scripts, no external resources, no fonts to fetch): a title block,

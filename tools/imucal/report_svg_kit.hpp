@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_kit.hpp: what every panel of the `imucal` tool's SVG report page
 // draws with (host only): the layout and colours, text and number formatting, the SVG
 // primitives, scales and ticks, panels on a time axis, the accelerometer model.

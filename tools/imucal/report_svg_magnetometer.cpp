@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_magnetometer.cpp: the report page's magnetometer panels: raw readings
 // against the calibrated sphere in three projections.
 #include "report_svg_sections.hpp"

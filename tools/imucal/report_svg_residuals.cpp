@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_residuals.cpp: the report page's residual bars (per pose, per move) and
 // the pose directions on two hemispheres.
 #include "report_svg_sections.hpp"

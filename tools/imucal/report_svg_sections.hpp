@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_sections.hpp: the sections of the `imucal` tool's SVG report page,
 // top to bottom, one file each (host only). Each draws from y down and returns the y below it.
 #pragma once

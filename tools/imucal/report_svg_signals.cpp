@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_signals.cpp: the report page's signal panels: raw accelerometer and
 // gyroscope over time, rests shaded and numbered; |a| before and after the calibration.
 #include "report_svg_sections.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/report_svg_temperature.cpp: the report page's temperature panels: the biases against
 // temperature, the rests and the fitted b(T).
 #include "report_svg_sections.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/run.hpp: one calibration run of the `imucal` tool, as the outputs (summary, JSON,
 // C header, SVG report) read it. Host only. All values in double, whatever scalar the
 // calibrator ran in.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/sample_store.cpp: see sample_store.hpp.
 #include "sample_store.hpp"
 

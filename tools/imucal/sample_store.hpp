@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/sample_store.hpp: the samples of one input, kept for the passes after the first
 // (the statistics over the rests, the calibration again with a temperature model, the page) in
 // bounded memory. Host only.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // tools/imucal/simulate.cpp: `imucal simulate`: a whole raw recording with known truth (the
 // simulator of the tests: rests, coning hand turns with linear acceleration, noise, bias,
 // timing jitter; a magnetometer with hard and soft iron; a temperature that ramps while the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/calibrator.hpp: the streaming calibrator. The firmware hands it every raw
 // sample (timestamp, accelerometer, gyroscope) and follows the progress it reports; at the end it
 // solves, in bounded slices, for the accelerometer and the gyroscope calibration. No raw sample

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/move_store.hpp: the moves between poses as gyro segments (math.md section 4),
 // in a store of fixed capacity. The move in progress grows segment by segment, each merged with
 // the previous one while the merged one stays a small, nearly single-axis rotation (the path

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/pose_collection.hpp: the poses a stream gave, and what they say about the
 // protocol so far: which faces have been up (coverage), about which axes the board has turned,
 // what the user should do next (the hint), and the gyro bias from the mean rates of the rests.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/settings.hpp: what the streaming calibrator (calibrator.hpp) takes and
 // reports: one raw sample, the settings, the phase and the hint for the user, the stream's fault
 // counts and the progress. Plain types, no code.

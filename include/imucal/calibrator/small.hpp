@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/small.hpp: the protocol calibrator sized for a part with 32 KB of RAM
 // (SAMD21, STM32G0/C0, nRF52810): at most 12 KiB, the other 20 KiB left to the application, its
 // stack and the record store (docs/small_parts.md).

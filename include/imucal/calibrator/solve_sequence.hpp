@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/calibrator/solve_sequence.hpp: the solve after the collection, in bounded slices: the
 // accelerometer's Levenberg-Marquardt on the poses, then the gyro's on the moves between them
 // (the gravity directions from the calibrated accelerometer), then the pass that carries the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/magnetometer/mag_calibration.hpp: magnetometer hard- and soft-iron calibration from
 // free-hand rotation (model in mag_model.hpp). A cheap per-sample collector keeps at most one raw
 // sample per direction cell; solve() fits an ellipsoid in closed form, refines it by

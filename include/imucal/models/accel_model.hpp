@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/accel_model.hpp: the accelerometer model of Tedaldi et al. (ICRA 2014) in the
 // seed's convention, its gravity-norm residual and the seed's analytic Jacobian.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/calibration.hpp: what a calibration is, apart from how it is found: the
 // accelerometer's and the gyroscope's parameters with their sigmas and status, and the two together
 // with the quality. The record (record.hpp) and the corrector (corrector.hpp) need only this; the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/gyro_model.hpp: the gyroscope model of Tedaldi et al. (ICRA 2014) in the seed's
 // convention (math.md section 1).
 //

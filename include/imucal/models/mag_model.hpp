@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/mag_model.hpp: the magnetometer model and the result of its calibration.
 //
 //   m_cal = S (m_raw + h)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/plausibility.hpp: the physical bounds every calibration value is checked against
 // before make_record(), encode_record(), decode_record() or Corrector accepts it, and which bound a
 // refused value broke. Finite is not enough: a scale of 3e38 or a temperature slope of 1e38 is

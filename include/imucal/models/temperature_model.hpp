@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/models/temperature_model.hpp: biases that move with temperature, and the fitted model.
 //
 //   b(T) = b0 + b1 (T - T0) + b2 (T - T0)^2          (per axis, raw units; b2 = 0 when linear)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/noise/allan.hpp: Allan variance of a 3-axis sensor at rest, and the noise terms fitted to
 // it (quantisation Q, white noise N = noise density, bias instability B, random walk K), the
 // numbers a Kalman filter or VIO needs. Three parts:

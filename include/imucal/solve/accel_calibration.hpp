@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/accel_calibration.hpp: accelerometer misalignment, scale and bias from still poses.
 // A closed-form ellipsoid fit starts a Levenberg-Marquardt run on the seed's gravity-norm
 // residual; no initial guess is asked of the user. Readings are centred and scaled internally,

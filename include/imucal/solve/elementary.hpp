@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/elementary.hpp: log, exp and sin/cos for the library's float paths, written out. In
 // float they are a few hundred bytes together where picolibc's logf, expf, powf, sinf and cosf
 // (with its large-argument reduction tables) are about 6 KB of a firmware, and they are exact

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/gyro_calibration.hpp: gyroscope misalignment, scale and (optionally) bias from the
 // moves between still poses: Tedaldi's gravity-direction residual (math.md section 4), the
 // rotation of each move re-evaluated from fixed-memory segment statistics, solved by the same

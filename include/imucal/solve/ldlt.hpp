@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/ldlt.hpp: LDL^T factorisation and solve of a small symmetric positive-definite
 // matrix, in place in a column-major array. Not templated on the size: the 9-, 12- and 4-unknown
 // problems share one copy of the code.

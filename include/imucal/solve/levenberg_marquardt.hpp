@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/levenberg_marquardt.hpp: a fixed-size Levenberg-Marquardt driver over the normal-
 // equations accumulator. It can run to completion or one iteration per step() call, so a solve
 // can be time-sliced into a control loop. Never allocates, never throws, never blocks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/normal_equations.hpp: the incremental normal-equations accumulator (math.md section
 // 3). Residual rows (J_i, e_i, w_i) are folded in one at a time into H = sum w J^T J (one packed
 // triangle), v = sum w J^T e, f = sum w e^2 and the row count: O(N^2) memory whatever the number

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/pose_store.hpp: still poses (mean raw reading and sample count) in a fixed-capacity
 // store. PoseSpan is the capacity-free view that the solvers take, so that algorithms are not
 // templated on the capacity. Never allocates; a full store refuses new poses and keeps its own.

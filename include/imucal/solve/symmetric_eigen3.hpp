@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/solve/symmetric_eigen3.hpp: eigenvalues and eigenvectors of a symmetric 3 x 3 matrix by
 // cyclic Jacobi rotations (the magnetometer's ellipsoid, the temperature fit's spread of
 // orientations). Square roots only, no trigonometry linked, under 1 KB of code; every

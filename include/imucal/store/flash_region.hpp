@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/store/flash_region.hpp: the storage port. A small region of flash that the record store
 // (imucal/store/record_store.hpp) keeps calibration records in. The firmware implements it over its
 // flash driver; ports/ has simulated flashes (sim_nor_flash.hpp: byte-programmable NOR;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/store/record.hpp: the calibration record, the bytes the firmware keeps in flash. Encoded
 // field by field (little-endian, IEEE-754 binary32), so it does not depend on the compiler's
 // struct layout or the CPU's byte order; decoding validates every byte and says what is wrong.

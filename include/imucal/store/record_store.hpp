@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/store/record_store.hpp: keeps the calibration record in a small flash region. Never
 // allocates or throws; blocks only inside the flash port's calls.
 //

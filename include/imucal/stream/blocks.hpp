@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/blocks.hpp: the unit the calibrator sorts a stream into. A block is a short
 // run of consecutive samples, all still or all moving: its gyro statistics (a GyroSegment of
 // u = w + b0), its path angle, its acceleration sum and the detector's cues. Still blocks wait

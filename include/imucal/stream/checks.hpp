@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/checks.hpp: the checks every raw sample passes before anything uses it, and the
 // front end that runs them (StreamChecks): readings finite and inside the full scale, timestamps
 // in order, a clock that went back and stayed back, gaps, a frozen sensor, the sample rate

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/compensated_sum.hpp: a sum kept to about twice the scalar's precision, for long
 // runs of small summands (means over hours of samples, Allan variances on raw counts). Header-only.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/fifo.hpp: a batch of raw frames as a sensor's FIFO delivers them: where each
 // frame's readings are in the bytes, and when each frame was taken. Every calibrator's add_fifo()
 // reads its frames with fifo_frame() and gives each the status add_raw() would. Integer work

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/gyro_segment.hpp: second-order statistics of a short run of raw gyro samples
 // (math.md section 4), so that the rotation over the run can be re-evaluated for ANY gyro matrix M
 // and bias b (model w_cal = M (w_raw + b)) without keeping the samples: 10 numbers per segment.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/initial_rest.hpp: finds the first still period of a raw IMU stream. A window
 // of four quarters slides over the stream (each quarter a quarter of `seconds` long); when the
 // quarter means agree within the noise and the quarter variances alike, the window is still. It

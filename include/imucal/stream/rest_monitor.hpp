@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/rest_monitor.hpp: a small rest finder for the field, after calibration. It
 // watches the raw stream (the same ImuSample the calibrator takes) and hands out a RestSummary
 // (mean raw readings, mean temperature, length) for each rest it finds, to feed

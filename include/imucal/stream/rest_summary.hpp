@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/rest_summary.hpp: what the stream layer hands out for each rest it finds: mean raw
 // readings, mean temperature, length. SampleBlock::summary() (blocks.hpp) makes it; the
 // temperature fit takes it. Plain data, no code.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/ring.hpp: a ring of at most N values, oldest first, in fixed memory: the delay
 // line of still blocks, the initial rest's quarters, the rests waiting to be taken. Never
 // allocates, throws or blocks. Header-only.

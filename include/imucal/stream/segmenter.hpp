@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/segmenter.hpp: splits a checked sample stream (checks.hpp) into rests and moves.
 // Samples are summed into sub-blocks (sub_block.hpp: 16-bit counts in integers, or readings in
 // the scalar type); each sub-block goes through the stillness detector (stillness.hpp) and into a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/stillness.hpp: tells still from moving, sub-block by sub-block (sub_block.hpp),
 // causally, in a few dozen bytes. Never allocates, throws or blocks. Header-only.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/stream/sub_block.hpp: the per-sample work of the stream layer. Each sample updates the
 // stillness detector's two moving averages (stillness.hpp) and is summed into a sub-block, all
 // still or all moving (a sample whose state differs starts a new one); a sub-block also ends at

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/temperature/temperature_fit.hpp: the temperature model of the accelerometer's and the
 // gyro's ADDED bias (temperature_model.hpp), fitted from rests at different temperatures:
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/port/sim_ecc_flash.hpp: a simulated flash that fails as MCU flash with ECC does, for
 // tests on the host and on the cross targets. Never allocates: the capacity is the template's.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/port/sim_nor_flash.hpp: a simulated NOR flash in RAM, for tests on the host and on the
 // cross targets. It enforces NOR semantics (erase to 0xFF per erase unit, program only clears
 // bits, no program call across a page) and can cut the power after any number of byte

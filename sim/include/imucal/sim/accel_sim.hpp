@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/accel_sim.hpp: simulated multi-position accelerometer recordings with known truth.
 // Draws T, K, b near realistic values, pose directions over the sphere (or a chosen geometry),
 // and white noise on every sample, and returns the pose means the calibrator sees. Double

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/life_sim.hpp: days of a device's life in normal use, with known truth, for the field
 // calibrators' bench (bench/field/): raw 16-bit accelerometer, gyroscope, magnetometer and
 // temperature readings generated one sample at a time (never the whole life in memory), while

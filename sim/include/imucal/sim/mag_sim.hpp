@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/mag_sim.hpp: simulated magnetometer readings with known truth (hard iron, symmetric
 // soft iron, field strength and dip, and a small rotation to the accelerometer frame), and a
 // free-hand rotation generator (a smooth random walk of attitudes: all round, about one body axis

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/motion_sim.hpp: a simulated raw IMU stream of Tedaldi's hand-held calibration
 // protocol with known truth: an initial rest, then alternating hand rotations and rests, with
 // white noise and sample-rate jitter, to feed the streaming calibrator (stillness detection,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/random.hpp: a small deterministic random source for the simulator. SplitMix64 and
 // Box-Muller, so a seed draws the same numbers on the host and on every cross target (the C++
 // standard library's distributions are implementation-defined). Not for device code.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // imucal/sim/temperature_sim.hpp: biases that drift with temperature, with known truth, for the
 // temperature model's tests (temperature_model.hpp, temperature_fit.hpp, rest_monitor.hpp).
 //
