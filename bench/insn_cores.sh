@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # What the library costs on each core, as one Markdown table: exact instructions (QEMU's counting
 # plugin, bench/run_insn_bench.sh) of Calibrator::add() per sample, of add_raw() per 16-bit frame
 # (the recording's frames at 100 Hz, and a 1 kHz stream), of add_fifo() per frame in batches of 25,
