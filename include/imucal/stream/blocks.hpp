@@ -68,6 +68,21 @@ struct SampleBlock {
   // The samples of b (a block or a sub-block: the same fields) follow this block's.
   template <class B>
   void fold(const B& b, const Vector3<Scalar>& comp, Scalar b_accel_cue, Scalar b_energy_cue) {
+    if (n == 0) {  // the same sums, without the arithmetic on zeros
+      seg = b.seg;
+      acc_ref = b.acc_ref;
+      acc_sum = b.acc_sum;
+      acc_comp = comp;
+      path = b.path;
+      accel_cue = b_accel_cue;
+      energy_cue = b_energy_cue;
+      temp_sum = b.temp_sum;
+      temp_n = b.temp_n;
+      t_begin = b.t_begin;
+      n = b.n;
+      t_end = b.t_end;
+      return;
+    }
     seg.append(b.seg);
     add_acc(b.acc_ref, b.acc_sum, comp, b.n);
     path += b.path;

@@ -78,6 +78,7 @@ class Segmenter {
     accel_shift_max_ = s.accel_shift_max;
     clear();
     raw_mode_ = false;
+    mean_follows_ = false;
     open_sub_block();
     raw_.forget_rate();
     float_.forget_rate();
@@ -94,8 +95,11 @@ class Segmenter {
              Scalar interval = Scalar(0)) {
     b0_ = gyro_bias;
     interval_ = interval > Scalar(0) ? interval : Scalar(0);
+    interval_us_ = 0;
     bias_pending_ = false;
     stillness_seconds_ = stillness.seconds;
+    weight_ = interval_ / (stillness_seconds_ + interval_);
+    mean_follows_ = false;
     detector_.start(stillness, acc_mean, acc_var, gyro_energy);
     detector_.set_glitch_limit(glitch_limit2);
     open_sub_block(true);
@@ -188,6 +192,7 @@ class Segmenter {
   // A sensor froze: the samples since it froze may already sit in the rest, so the block, the
   // delay line and the open rest are discarded.
   void discard() {
+    mean_follows_ = false;
     open_sub_block();  // what the open sub-block held goes too
     raw_.forget_rate();
     float_.forget_rate();
@@ -262,7 +267,8 @@ class Segmenter {
     detector_.limits(l);
     l.gyro_bias = b0_;
     l.energy_max = energy_max_;
-    l.weight = interval_ / (l.seconds + interval_);
+    l.weight = weight_;
+    l.acc_ref_is_mean = mean_follows_;
     if (both || raw_mode_) raw_.start(l);
     if (both || !raw_mode_) float_.start(l);
   }
@@ -273,14 +279,22 @@ class Segmenter {
   template <class Sink>
   __attribute__((noinline)) void sub_block_done(const SubBlockStats<Scalar>& s, Sink& sink) {
     const bool still = detector_.update(s);
+    mean_follows_ = true;
     const SegmentBounds<Scalar>& bounds = sink.segment_bounds();
     // Rotation bound of the next sub-block: its path duration * rms|u| at most a quarter of a
-    // segment's: sum |u|^2 <= (max_angle / 4)^2 / (n h^2), with n the most samples it holds.
-    const Scalar h = s.mean_interval();
-    if (h > Scalar(0)) {
-      interval_ = h;
-      const Scalar a = Scalar(0.25) * bounds.max_angle / h;
-      energy_max_ = a * a / static_cast<Scalar>(SubBlockSamples);
+    // segment's: sum |u|^2 <= (max_angle / 4)^2 / (n h^2), with n the most samples it holds and
+    // h the mean interval (to the microsecond: it and the moving averages' weight are worked
+    // out again only when that changes).
+    if (s.intervals > 0) {
+      const std::uint32_t us = (s.duration_us + s.intervals / 2) / s.intervals;
+      if (us != interval_us_ || detail::bits_differ(bounds.max_angle, bound_angle_)) {
+        interval_us_ = us;
+        bound_angle_ = bounds.max_angle;
+        interval_ = static_cast<Scalar>(us) * Scalar(1e-6);
+        const Scalar a = Scalar(0.25) * bounds.max_angle / interval_;
+        energy_max_ = a * a / static_cast<Scalar>(SubBlockSamples);
+        weight_ = interval_ / (stillness_seconds_ + interval_);
+      }
     }
     if (block_.n > 0 && (still != block_.still || block_.path + s.path > bounds.max_angle))
       close_block(sink);
@@ -379,7 +393,11 @@ class Segmenter {
   Vector3<Scalar> pending_bias_ = Vector3<Scalar>::Zero();
   bool bias_pending_ = false;
   Scalar energy_max_ = std::numeric_limits<Scalar>::infinity();  // a sub-block's rotation bound
-  Scalar interval_ = Scalar(0);  // the latest sub-block's mean sample interval
+  Scalar interval_ = Scalar(0);     // the latest sub-block's mean sample interval
+  std::uint32_t interval_us_ = 0;   // the same, to the microsecond (0: none yet)
+  Scalar bound_angle_ = Scalar(0);  // the segment bound energy_max_ was worked out for
+  Scalar weight_ = Scalar(0);       // one sample's weight in the moving averages at interval_
+  bool mean_follows_ = false;       // the detector's mean is the accumulators' moving mean
   std::uint32_t block_us_ = 0, trim_us_ = 0;
   Block block_{};
   DelayLine<Scalar, DelayBlocks> delay_{};

@@ -23,6 +23,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include "imucal/stream/gyro_segment.hpp"
@@ -50,15 +51,19 @@ struct SubBlockLimits {
   Scalar energy_clip = std::numeric_limits<Scalar>::infinity();  // clip of one |u|^2
   Scalar glitch2 = std::numeric_limits<Scalar>::infinity();      // a deviation beyond: a glitch
   Scalar energy_max = std::numeric_limits<Scalar>::infinity();   // sum |u|^2 that closes it
+  // acc_ref is the accumulator's own moving mean (where its last sample left it): the integer
+  // accumulator takes its reference from its fixed-point mean, without a conversion.
+  bool acc_ref_is_mean = false;
 };
 
 // One sub-block, summed: what the detector and the blocks take.
 template <typename Scalar>
 struct SubBlockStats {
-  bool still = true;            // every sample still (else every sample moving)
-  std::uint32_t n = 0;          // samples
-  std::uint32_t n_acc = 0;      // of which with a usable accelerometer reading (not saturated)
-  std::uint32_t intervals = 0;  // sample intervals (a sample that starts the stream has none)
+  bool still = true;              // every sample still (else every sample moving)
+  std::uint32_t n = 0;            // samples
+  std::uint32_t n_acc = 0;        // of which with a usable accelerometer reading (not saturated)
+  std::uint32_t intervals = 0;    // sample intervals (a sample that starts the stream has none)
+  std::uint32_t duration_us = 0;  // their sum
   std::uint32_t t_begin = 0, t_end = 0;
   Vector3<Scalar> acc_ref = Vector3<Scalar>::Zero();      // the sums' reference (raw)
   Vector3<Scalar> moving_mean = Vector3<Scalar>::Zero();  // the detector's, after the last sample
@@ -101,6 +106,8 @@ namespace detail {
 // x as the scalar type, without the runtime's 64-bit conversion routines.
 template <typename Scalar>
 Scalar to_scalar(std::int64_t x) {
+  const std::int32_t low = static_cast<std::int32_t>(x);
+  if (x == low) return static_cast<Scalar>(low);  // one conversion, correctly rounded
   const std::int32_t hi = static_cast<std::int32_t>(x >> 32);
   const std::uint32_t lo = static_cast<std::uint32_t>(x);
   return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
@@ -109,6 +116,7 @@ template <typename Scalar>
 Scalar to_scalar(std::uint64_t x) {
   const std::uint32_t hi = static_cast<std::uint32_t>(x >> 32);
   const std::uint32_t lo = static_cast<std::uint32_t>(x);
+  if (hi == 0) return static_cast<Scalar>(lo);
   return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
 }
 
@@ -143,7 +151,7 @@ std::uint64_t to_u64_limit(Scalar x) {
   if (!(x < Scalar(1.8e19))) return ~std::uint64_t{0};
   if (!(x > Scalar(0))) return 0;
   const Scalar two32 = Scalar(4294967296.0);
-  const std::uint32_t hi = static_cast<std::uint32_t>(x / two32);
+  const std::uint32_t hi = static_cast<std::uint32_t>(x * Scalar(1.0 / 4294967296.0));
   const Scalar rest = x - static_cast<Scalar>(hi) * two32;
   const std::uint32_t lo = rest > Scalar(0) ? static_cast<std::uint32_t>(rest) : 0u;
   return (static_cast<std::uint64_t>(hi) << 32) | lo;
@@ -159,6 +167,15 @@ inline std::int32_t round_to_int(double x) {
 inline std::int32_t round_to_int(float x) {
   return static_cast<std::int32_t>(x < 0 ? x - 0.5f : x + 0.5f);
 }
+// round_to_int(q / 256), in integers.
+inline std::int32_t round_q8(std::int32_t q) { return q < 0 ? -((128 - q) >> 8) : (q + 128) >> 8; }
+
+// Whether a and b differ in any bit: an integer compare (no soft-float call), for values that
+// are copied, never computed, between the compares.
+template <typename T>
+bool bits_differ(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) != 0;
+}
 
 }  // namespace detail
 
@@ -169,7 +186,7 @@ class FloatSubBlock {
   // Empty, with the limits for this sub-block. The previous sample's rate (the trapezoid's
   // other end) is kept, moved to the new bias (forget_rate() after start() clears it).
   void start(const SubBlockLimits<Scalar>& l) {
-    u_prev_ += l.gyro_bias - lim_.gyro_bias;
+    if (detail::bits_differ(l.gyro_bias, lim_.gyro_bias)) u_prev_ += l.gyro_bias - lim_.gyro_bias;
     lim_ = l;
     clear();
   }
@@ -245,6 +262,7 @@ class FloatSubBlock {
     if (step_us != 0) {
       s_.seg.add(m, dt);
       ++s_.intervals;
+      s_.duration_us += step_us;
     }
     if (!detail::is_nan(temperature)) {
       s_.temp_sum += temperature - temp_ref;
@@ -287,31 +305,55 @@ class FloatSubBlock {
 template <typename Scalar>
 class RawSubBlock {
  public:
+  // Empty, with the limits for this sub-block. A limit is converted when it differs from the
+  // previous sub-block's (most sub-blocks change none but the reference).
   void start(const SubBlockLimits<Scalar>& l) {
-    for (int i = 0; i < 3; ++i) {
-      const std::int32_t b = detail::round_to_int(l.gyro_bias(i));
-      u_prev_[i] += b - bias_[i];  // the trapezoid's other end, moved to the new bias
-      bias_[i] = b;
-      ref_[i] = detail::round_to_int(l.acc_ref(i));
+    const bool all = !converted_;
+    converted_ = true;
+    if (all || detail::bits_differ(l.gyro_bias, lim_.gyro_bias)) {
+      db_zero_ = true;
+      for (int i = 0; i < 3; ++i) {
+        const std::int32_t b = detail::round_to_int(l.gyro_bias(i));
+        u_prev_[i] += b - bias_[i];  // the trapezoid's other end, moved to the new bias
+        bias_[i] = b;
+        db_(i) = l.gyro_bias(i) - static_cast<Scalar>(b);
+        db_zero_ = db_zero_ && db_(i) == Scalar(0);
+      }
+      db2_ = db_.squaredNorm();
     }
+    for (int i = 0; i < 3; ++i)
+      ref_[i] =
+          l.acc_ref_is_mean ? detail::round_q8(mean_q8_[i]) : detail::round_to_int(l.acc_ref(i));
     // A clip, a glitch limit or a bound beyond what the sums can hold is no clip, limit or bound.
-    dev_clip_q8_ = detail::to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
-    energy_clip_ = detail::to_u32_limit(l.energy_clip, kEnergyClipCap);
-    glitch2_q8_ = detail::to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
-    energy_max_ = detail::to_u64_limit(l.energy_max);
+    if (all || detail::bits_differ(l.dev_clip, lim_.dev_clip))
+      dev_clip_q8_ = detail::to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
+    if (all || detail::bits_differ(l.energy_clip, lim_.energy_clip))
+      energy_clip_ = detail::to_u32_limit(l.energy_clip, kEnergyClipCap);
+    if (all || detail::bits_differ(l.glitch2, lim_.glitch2))
+      glitch2_q8_ = detail::to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
+    if (all || detail::bits_differ(l.energy_max, lim_.energy_max))
+      energy_max_ = detail::to_u64_limit(l.energy_max);
     // The averages in fixed point: the accelerometer's as v = variance / (1 - w), which moves
     // w of the way to each sample's share as the gyro's does (rescaled when w changes).
+    const bool new_weight = all || detail::bits_differ(l.weight, lim_.weight);
+    const bool new_accel =
+        new_weight || detail::bits_differ(l.accel_threshold, lim_.accel_threshold);
+    const bool new_energy = all || detail::bits_differ(l.energy_threshold, lim_.energy_threshold);
     const Scalar w_old = weight();
     lim_ = l;
     const Scalar w = weight();
-    if (w != w_old)
-      va_q8_ = static_cast<std::int32_t>(detail::to_u32_limit(
-          static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
-    weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
-    accel_max_q8_ = static_cast<std::int32_t>(
-        detail::to_u32_limit(Scalar(256) * l.accel_threshold / (Scalar(1) - w), 0x7FFFFFFFu));
-    energy_max_q4_ = static_cast<std::int32_t>(
-        detail::to_u32_limit(Scalar(16) * l.energy_threshold, 0x7FFFFFFFu));
+    if (new_weight) {
+      if (w != w_old)
+        va_q8_ = static_cast<std::int32_t>(detail::to_u32_limit(
+            static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
+      weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
+    }
+    if (new_accel)
+      accel_max_q8_ = static_cast<std::int32_t>(
+          detail::to_u32_limit(Scalar(256) * l.accel_threshold / (Scalar(1) - w), 0x7FFFFFFFu));
+    if (new_energy)
+      energy_max_q4_ = static_cast<std::int32_t>(
+          detail::to_u32_limit(Scalar(16) * l.energy_threshold, 0x7FFFFFFFu));
     use_gyro_ = l.use_gyro;
     clear();
   }
@@ -435,17 +477,16 @@ class RawSubBlock {
     s.n = n_;
     s.n_acc = n_acc_;
     s.intervals = intervals_;
+    s.duration_us = duration_us_;
     s.t_begin = t_begin_;
     s.t_end = t_end_;
     const Scalar na = static_cast<Scalar>(n_acc_), n = static_cast<Scalar>(n_);
-    // The gyro's sums are about the rounded bias; the limits' is db away.
-    Vector3<Scalar> db;
+    // The gyro's sums are about the rounded bias; the limits' is db_ away.
     Scalar db_dot_u1 = Scalar(0);
     for (int i = 0; i < 3; ++i) {
       s.acc_ref(i) = static_cast<Scalar>(ref_[i]);
       s.acc_sum(i) = static_cast<Scalar>(s1_[i]);
-      db(i) = lim_.gyro_bias(i) - static_cast<Scalar>(bias_[i]);
-      db_dot_u1 += db(i) * static_cast<Scalar>(u1_[i]);
+      if (!db_zero_) db_dot_u1 += db_(i) * static_cast<Scalar>(u1_[i]);
     }
     if (n_acc_ > 0 && n_acc_ < n_) s.acc_sum *= n / na;
     s.dev = detail::to_scalar<Scalar>(dev_) * Scalar(1.0 / 256);
@@ -453,8 +494,11 @@ class RawSubBlock {
     for (int i = 0; i < 3; ++i)
       s.moving_mean(i) = static_cast<Scalar>(mean_q8_[i]) * Scalar(1.0 / 256);
     const Scalar energy = detail::to_scalar<Scalar>(energy_);
-    s.energy = energy + Scalar(2) * db_dot_u1 + n * db.squaredNorm();
-    s.energy = s.energy > Scalar(0) ? s.energy : Scalar(0);
+    s.energy = energy;
+    if (!db_zero_) {
+      s.energy = energy + Scalar(2) * db_dot_u1 + n * db2_;
+      s.energy = s.energy > Scalar(0) ? s.energy : Scalar(0);
+    }
     s.energy_clipped = static_cast<std::uint64_t>(energy_c_) == energy_
                            ? s.energy
                            : static_cast<Scalar>(energy_c_);
@@ -466,13 +510,14 @@ class RawSubBlock {
       const Scalar b = Scalar(0.25) * h * h, g = Scalar(0.5) * h * h;
       const Scalar h0 = static_cast<Scalar>(step0_) * Scalar(1e-6);
       for (int i = 0; i < 3; ++i) {
-        s.seg.alpha(i) = Scalar(0.5) * (h0 * static_cast<Scalar>(p_[i]) +
-                                        Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
+        const Scalar a = h0 * static_cast<Scalar>(p_[i]);
+        s.seg.alpha(i) =
+            Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
         s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
         s.seg.gamma(i) = g * static_cast<Scalar>(y_[i]);
       }
       s.seg.duration = duration;
-      s.seg.add_bias(db);
+      if (!db_zero_) s.seg.add_bias(db_);
     }
     s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
     s.temp_sum = temp_sum_;
@@ -510,6 +555,9 @@ class RawSubBlock {
   }
 
   SubBlockLimits<Scalar> lim_{};
+  Vector3<Scalar> db_ = Vector3<Scalar>::Zero();  // the limits' bias less its rounding, bias_
+  Scalar db2_ = Scalar(0);                        // |db_|^2
+  bool db_zero_ = true, converted_ = false;
   std::int32_t ref_[3] = {0, 0, 0}, bias_[3] = {0, 0, 0}, u_prev_[3] = {0, 0, 0};
   std::int32_t s1_[3] = {0, 0, 0}, u1_[3] = {0, 0, 0}, p_[3] = {0, 0, 0}, y_[3] = {0, 0, 0};
   std::int64_t x_[3] = {0, 0, 0}, c_[3] = {0, 0, 0};
