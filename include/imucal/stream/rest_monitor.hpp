@@ -56,6 +56,10 @@ struct RestMonitorSettings : StreamSettings<Scalar>, SegmenterSettings<Scalar> {
   Scalar gyro_noise = std::numeric_limits<Scalar>::quiet_NaN();
   // The raw gyro reading at zero rate (minus the calibration's bias) when the monitor starts.
   Vector3<Scalar> gyro_rest_reading = Vector3<Scalar>::Zero();
+  // True: the zero-rate reading follows the gyro's mean over each rest handed out. False: it
+  // stays at what set_gyro_rest_reading() sets (an owner that judges the rests first, such as
+  // the field calibrator: a slow steady turn taken for a rest must not become the zero rate).
+  bool follow_rests = true;
   StillnessSettings<Scalar> stillness{};  // the detector's settings, as in the calibrator
   // An accelerometer reading further than this many noise sigmas (sqrt(accel_noise)) from the
   // detector's moving mean is a glitch: refused and counted (as CalibratorSettings::glitch_sigma).
@@ -82,6 +86,7 @@ class RestMonitor {
         valid_ ? static_cast<std::uint32_t>(settings.max_step_seconds * Scalar(1e6)) : 0u);
     segmenter_.reset(settings);
     started_ = false;
+    after_motion_ = true;
     queue_.clear();
     dropped_ = emitted_ = 0;
     return valid_ ? Status::kOk : Status::kInvalidArgument;
@@ -133,6 +138,7 @@ class RestMonitor {
   void finish() {
     segmenter_.end(*this);
     checks_.restart();
+    after_motion_ = true;
   }
 
   // The oldest finished rest not taken yet; false if none. Call it after every add() or at least
@@ -154,6 +160,13 @@ class RestMonitor {
   std::uint32_t samples_refused() const { return checks_.refused(); }
   // The raw gyro reading at zero rate now: the latest rest's mean, or the setting before any.
   Vector3<Scalar> gyro_rest_reading() const { return -segmenter_.gyro_bias(); }
+  // Sets the zero-rate reading the detector removes from the gyro (from the end of the sub-block
+  // in progress). kNonFiniteInput, nothing changed, for a NaN or infinity.
+  Status set_gyro_rest_reading(const Vector3<Scalar>& reading) {
+    if (!all_finite(reading)) return Status::kNonFiniteInput;
+    segmenter_.set_gyro_bias(-reading);
+    return Status::kOk;
+  }
 
  private:
   using Block = SampleBlock<Scalar>;
@@ -183,24 +196,34 @@ class RestMonitor {
   }
 
   // ---- The front end's sink ----
-  void stream_cut() { segmenter_.cut(*this); }
-  void sensor_froze() { segmenter_.discard(); }
+  void stream_cut() {
+    segmenter_.cut(*this);
+    after_motion_ = true;
+  }
+  void sensor_froze() {
+    segmenter_.discard();
+    after_motion_ = true;
+  }
 
   // ---- The segmenter's sink ----
   const SegmentBounds<Scalar>& segment_bounds() const { return bounds_; }
-  void move_block(const Block&) {}  // moves are not kept
+  void move_block(const Block&) { after_motion_ = true; }  // moves are not kept
   void rest_ended(const Block& rest, bool long_enough) {
+    const bool after_motion = after_motion_;
+    after_motion_ = false;
     if (!long_enough) return;
     segmenter_.learn_rest(rest);
-    const RestSummary<Scalar> out =
-        rest.summary(segmenter_.gyro_bias(), checks_.temperature().ref());
-    segmenter_.set_gyro_bias(-out.gyro_mean);  // the zero-rate reading follows the rests
-    if (queue_.push(out)) ++dropped_;          // full: the oldest went
+    RestSummary<Scalar> out = rest.summary(segmenter_.gyro_bias(), checks_.temperature().ref());
+    out.after_motion = after_motion;
+    if (settings_.follow_rests)
+      segmenter_.set_gyro_bias(-out.gyro_mean);  // the zero-rate reading follows the rests
+    if (queue_.push(out)) ++dropped_;            // full: the oldest went
     ++emitted_;
   }
 
   RestMonitorSettings<Scalar> settings_{};
   bool valid_ = false, started_ = false;
+  bool after_motion_ = true;  // since the last rest ended: motion, a cut or the start
   StreamChecks<Scalar> checks_{};
   Segmenter<Scalar, DelayBlocks> segmenter_{};
   // Blocks close by duration and stillness only: the monitor keeps no gyro segments.

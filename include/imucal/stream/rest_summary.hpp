@@ -21,6 +21,10 @@ struct RestSummary {
   std::uint32_t samples = 0;
   Scalar duration_s = Scalar(0);
   std::uint32_t begin_us = 0, end_us = 0;  // timestamps of its first and last sample
+  // RestMonitor: motion, a cut in the stream or the stream's start came between the rest before
+  // and this one. False: this rest continues the one before (split at max_rest_seconds or by a
+  // slow tilt), with no motion the detector saw in between.
+  bool after_motion = true;
 };
 
 }  // namespace imucal

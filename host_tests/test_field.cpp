@@ -1,0 +1,273 @@
+// SPDX-License-Identifier: MIT
+// The field calibrator (include/imucal/field/): its bias filter on its own, its statuses on bad
+// input, and on simulated lives with known truth (sim/life_sim.hpp): the bias it publishes, the
+// sigma it states, the changes it finds and the updates it refuses.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "imucal/field/bias_filter.hpp"
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/sim/life_sim.hpp"
+#include "imucal/sim/random.hpp"
+
+namespace imucal {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// ---- The bias filter ----
+
+TEST(BiasFilter, LearnsBiasSlopeAndCurvatureWithinTheirSigmas) {
+  sim::Random rng(5);
+  BiasFilter<double> f;
+  f.start(Vector3<double>::Zero(), 50.0, Vector3<double>::Zero(), 1.0, Vector3<double>::Zero(),
+          0.05, 25.0);
+  const Vector3<double> c(3.0, -40.0, 7.5), s(0.2, -0.3, 0.05), q(0.004, -0.002, 0.0);
+  const double r = 0.01;  // each measurement's variance per axis
+  double chi2_sum = 0.0;
+  const int n = 400;
+  for (int k = 0; k < n; ++k) {
+    const double t = 15.0 + 30.0 * rng.uniform();
+    const double d = t - 25.0;
+    const Vector3<double> z = c + d * (s + d * q) + rng.normal3() * std::sqrt(r);
+    if (k >= 50) chi2_sum += f.chi2(z, r, t);
+    f.update(z, r, t);
+  }
+  // Innovations of a consistent filter: chi-square(3), mean 3.
+  EXPECT_NEAR(chi2_sum / (n - 50), 3.0, 0.6);
+  const double sc = std::sqrt(f.p(0, 0)), ss = std::sqrt(f.p(1, 1)), sq = std::sqrt(f.p(2, 2));
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LT(std::fabs(f.c(i) - c(i)), 4.0 * sc) << i;
+    EXPECT_LT(std::fabs(f.s(i) - s(i)), 4.0 * ss) << i;
+    EXPECT_LT(std::fabs(f.q(i) - q(i)), 4.0 * sq) << i;
+  }
+  EXPECT_NEAR(f.min_c, 15.0, 0.5);
+  EXPECT_NEAR(f.max_c, 45.0, 0.5);
+  EXPECT_EQ(f.measurements, static_cast<std::uint32_t>(n));
+}
+
+TEST(BiasFilter, ClampsBeyondWhatItSawWhileItsVarianceGrows) {
+  BiasFilter<double> f;
+  f.start(Vector3<double>::Zero(), 10.0, Vector3<double>::Zero(), 1.0, Vector3<double>::Zero(), 0.0,
+          20.0);
+  for (int k = 0; k <= 10; ++k) {
+    const double t = 20.0 + k;  // 20 to 30 degC, bias = 2 (T - 20)
+    f.update(Vector3<double>::Constant(2.0 * (t - 20.0)), 1e-4, t);
+  }
+  // Within the range plus the 5 degC margin the model is applied; beyond it, clamped.
+  EXPECT_NEAR(f.at(34.0, 5.0)(0), 28.0, 0.05);
+  EXPECT_NEAR(f.at(50.0, 5.0)(0), 30.0, 0.05);
+  EXPECT_NEAR(f.at(-10.0, 5.0)(0), -10.0, 0.05);
+  EXPECT_NEAR(f.at(kNaN, 5.0)(0), 0.0, 0.05);  // no temperature: at T0
+  EXPECT_GT(f.variance_at(50.0), 4.0 * f.variance_at(25.0));
+  // The walk widens only the bias at T0.
+  const double p11 = f.p(1, 1), p00 = f.p(0, 0);
+  f.predict(100.0, 0.01);
+  EXPECT_NEAR(f.p(0, 0), p00 + 1.0, 1e-12);
+  EXPECT_EQ(f.p(1, 1), p11);
+}
+
+// ---- The calibrator on bad input ----
+
+FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
+  FieldSettings<float> s;
+  const double bw = std::sqrt(0.5 * sheet.rate_hz);
+  const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
+  const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
+  s.gyro_noise = static_cast<float>(3.0 * g * g);
+  s.accel_noise = static_cast<float>(3.0 * a * a);
+  s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
+  s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
+  return s;
+}
+
+FieldSettings<float> plain_settings() {
+  FieldSettings<float> s;
+  s.gyro_noise = 4.0f;
+  s.accel_noise = 100.0f;
+  s.gyro_per_rad_s = 940.0f;
+  return s;
+}
+
+TEST(FieldCalibrator, SettingsOutOfRangeRefuseEverySample) {
+  FieldCalibrator<float> f;
+  FieldSettings<float> s = plain_settings();
+  s.gyro_per_rad_s = kNaN;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  ImuSample<float> x;
+  x.acc = Vector3<float>(0, 0, 4096);
+  EXPECT_EQ(f.add(x), Status::kInvalidArgument);
+  s = plain_settings();
+  s.gate_chi2 = -1.0f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  s = plain_settings();
+  s.better_ratio = 1.5f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  EXPECT_EQ(f.start(plain_settings()), Status::kOk);
+  EXPECT_EQ(f.add(x), Status::kOk);
+}
+
+TEST(FieldCalibrator, APriorWithANaNIsRefusedAndTheNominalOneUsed) {
+  FieldCalibrator<float> f;
+  Calibration<float> prior;
+  prior.gyro.status = Status::kOk;
+  prior.gyro.params(kGyroBiasX) = kNaN;
+  EXPECT_EQ(f.start(plain_settings(), &prior), Status::kNonFiniteInput);
+  EXPECT_FALSE(f.published());
+  Vector3<float> b;
+  EXPECT_FALSE(f.gyro_bias(25.0f, b));
+  EXPECT_TRUE(all_finite(b));
+  // A usable prior is published from the start, with its sigma.
+  prior.gyro.params(kGyroBiasX) = 12.0f;
+  prior.gyro.sigma.tail<3>().setConstant(0.5f);
+  prior.has_temperature = true;
+  prior.temperature_c = 30.0f;
+  EXPECT_EQ(f.start(plain_settings(), &prior), Status::kOk);
+  float sigma = 0.0f;
+  EXPECT_TRUE(f.gyro_bias(30.0f, b, &sigma));
+  EXPECT_FLOAT_EQ(b(0), 12.0f);
+  EXPECT_FLOAT_EQ(sigma, 0.5f);
+}
+
+TEST(FieldCalibrator, BadSamplesAreRefusedWithTheirStatusAndChangeNothing) {
+  FieldCalibrator<float> f;
+  ASSERT_EQ(f.start(plain_settings()), Status::kOk);
+  ImuSample<float> x;
+  x.acc = Vector3<float>(0, 0, 4096);
+  x.t_us = 1000;
+  EXPECT_EQ(f.add(x), Status::kOk);
+  ImuSample<float> bad = x;
+  bad.t_us = 11000;
+  bad.gyro(1) = kNaN;
+  EXPECT_EQ(f.add(bad), Status::kNonFiniteInput);
+  bad = x;
+  bad.t_us = 500;
+  EXPECT_EQ(f.add(bad), Status::kTimeBackwards);
+  EXPECT_EQ(f.add_mag(Vector3<float>(kNaN, 0, 0)), Status::kNonFiniteInput);
+  EXPECT_EQ(f.monitor().samples_refused(), 2u);
+  EXPECT_EQ(f.counts().rests, 0u);
+  x.t_us = 11000;
+  EXPECT_EQ(f.add(x), Status::kOk);
+}
+
+// ---- On simulated lives ----
+
+struct LifeRun {
+  std::vector<double> err;  // per second, the norm of the published bias's error (mdeg/s)
+  double z2 = 0.0;          // sum of (error / sigma)^2 over seconds and axes
+  std::size_t zn = 0;
+  double first_s = -1.0;
+  int false_updates = 0;  // a publication more than 5 sigma from the truth on an axis
+  std::uint32_t updates = 0, changes = 0;
+  double change_after_knock_s = -1.0;
+  double knock_s = -1.0;
+
+  double median() const {
+    std::vector<double> e = err;
+    std::sort(e.begin(), e.end());
+    return e.empty() ? 0.0 : e[e.size() / 2];
+  }
+  double honesty() const { return std::sqrt(z2 / static_cast<double>(zn)); }
+};
+
+LifeRun run_life(const char* name, double hours, bool mag, std::uint64_t seed = 1) {
+  sim::LifePlan plan;
+  sim::LifeOptions o;
+  o.magnetometer = mag;
+  EXPECT_TRUE(sim::make_life(name, seed, hours, o, plan));
+  sim::LifeSimulator life(plan);
+  const sim::DeviceSheet sheet = life.sheet();
+  FieldCalibrator<float> f;
+  EXPECT_EQ(f.start(settings_for(sheet)), Status::kOk);
+  const double k = sheet.gyro_rad_s_per_count * 180e3 / 3.14159265358979323846;  // mdeg/s
+  LifeRun out;
+  sim::LifeSample s;
+  sim::LifeTruth t;
+  double next = 1.0;
+  std::uint32_t seen_updates = 0;
+  while (life.next(s, t)) {
+    if (t.phase == sim::PhaseKind::kKnock && out.knock_s < 0.0) out.knock_s = s.t_s;
+    RawFrame fr;
+    fr.t_us = s.t_us;
+    for (std::size_t i = 0; i < 3; ++i) {
+      fr.acc[i] = s.acc_counts[i];
+      fr.gyro[i] = s.gyro_counts[i];
+    }
+    const Status st = f.add_raw(fr, s.temperature_new ? s.imu.temperature : kNaN);
+    EXPECT_TRUE(st == Status::kOk || sample_taken(st)) << to_string(st);
+    if (mag && s.mag_new) f.add_mag(s.mag);
+    FieldEvent<float> e;
+    while (f.take_event(e))
+      if (e.kind == FieldEventKind::kChangeDetected && out.knock_s >= 0.0 &&
+          out.change_after_knock_s < 0.0)
+        out.change_after_knock_s = s.t_s - out.knock_s;
+    if (s.t_s < next) continue;
+    next += 1.0;
+    Vector3<float> b;
+    float sigma_f = 0.0f;
+    if (!f.gyro_bias(b, &sigma_f)) continue;
+    const double sigma = static_cast<double>(sigma_f);
+    if (out.first_s < 0.0) out.first_s = s.t_s;
+    const Vector3<double> error = b.cast<double>() - t.gyro_bias;
+    out.err.push_back(error.norm() * k);
+    for (int i = 0; i < 3; ++i) out.z2 += error(i) * error(i) / (sigma * sigma);
+    out.zn += 3;
+    if (f.counts().updates != seen_updates) {
+      seen_updates = f.counts().updates;
+      if (error.cwiseAbs().maxCoeff() > 5.0 * sigma) {
+        ++out.false_updates;
+        ADD_FAILURE() << name << ": false update at " << s.t_s << " s, error "
+                      << error.transpose() * k << " mdeg/s, sigma " << sigma * k;
+      }
+    }
+  }
+  out.updates = f.counts().updates;
+  out.changes = f.counts().changes;
+  EXPECT_LT(sizeof(f), 4096u);
+  return out;
+}
+
+// A desk: long rests in a few places, picked up now and then, warming and cooling over the day;
+// a knock steps the bias mid-life.
+TEST(FieldLife, DeskBiasWithinAFewMdegPerSecondSigmaHonestKnockFound) {
+  const LifeRun r = run_life("desk", 18.0, true);
+  // The rest noise over 5 s is 3.2 mdeg/s per axis; the filter's steady state about half that.
+  EXPECT_LT(r.median(), 4.0);
+  EXPECT_GT(r.first_s, 0.0);
+  EXPECT_LT(r.first_s, 120.0);  // the first rest of the life, verified by the field
+  EXPECT_EQ(r.false_updates, 0);
+  EXPECT_GT(r.honesty(), 0.7);
+  EXPECT_LT(r.honesty(), 1.3);
+  ASSERT_GE(r.knock_s, 0.0);
+  EXPECT_GE(r.changes, 1u);
+  EXPECT_GT(r.change_after_knock_s, 0.0);
+  EXPECT_LT(r.change_after_knock_s, 60.0);  // a verified rest 10 s after the held one
+}
+
+// A platform turning slowly about the vertical most of the time (a turn that looks like a rest
+// to the detector): with the magnetometer the turns are refused, and no update is false.
+TEST(FieldLife, TurntableTurnsAreNotTakenForABias) {
+  const LifeRun r = run_life("turntable", 12.0, true);
+  EXPECT_EQ(r.false_updates, 0);
+  EXPECT_GT(r.updates, 0u);
+  EXPECT_LT(r.median(), 15.0);  // the turns are 200 to 2000 mdeg/s
+}
+
+// A vehicle: steady bends, an idling engine, driving. No false update, with or without the
+// magnetometer.
+TEST(FieldLife, VehicleBendsMakeNoFalseUpdate) {
+  for (bool mag : {true, false}) {
+    const LifeRun r = run_life("vehicle", 12.0, mag);
+    EXPECT_EQ(r.false_updates, 0) << "magnetometer " << mag;
+    EXPECT_GT(r.updates, 0u) << "magnetometer " << mag;
+    EXPECT_LT(r.median(), 10.0) << "magnetometer " << mag;
+  }
+}
+
+}  // namespace
+}  // namespace imucal

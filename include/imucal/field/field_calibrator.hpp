@@ -1,0 +1,693 @@
+// SPDX-License-Identifier: MIT
+// imucal/field/field_calibrator.hpp: keeps the gyro's bias right through normal use, with nobody
+// turning the device (field.md sections 1, 2 and 6). It runs forever on the raw stream.
+//
+// The stream layer finds the rests: a RestMonitor (rest_monitor.hpp: the protocol's checks,
+// detector, blocks and rests) hands out every rest of min_rest_seconds or more, split into pieces
+// of at most max_rest_seconds. Each rest is judged before it may move anything:
+//   - a steady turn: consecutive pieces of one rest whose mean gravity direction turns faster
+//     than turn_rate_max are a slow rotation taken for a rest (a car's bend, a turntable): every
+//     piece of that rest is refused (kTurning). A piece is judged once the next piece or the end
+//     of the rest is known.
+//   - consistency: the rest's mean gyro against the bias filter's prediction at its temperature
+//     (bias_filter.hpp: bias and slope per axis, a random walk between rests), a chi-square(3)
+//     gate. A rest within the gate is taken into the filter. One outside is held as a candidate
+//     (a turn about the vertical looks like a bias inside one rest): a later rest after motion
+//     that agrees with it confirms a change (a knock; kChangeDetected: the filter's bias
+//     variance grows by change_sigma^2 and both rests are taken); one that agrees with the filter
+//     instead drops it (kRejected, kUnconfirmed).
+// What the device applies is the *published* bias model, not the filter: the filter's model
+// replaces it only when the two differ significantly (publish_chi2 on the difference with both
+// variances) and the filter's variance is the smaller (kUpdated); or at once after a change
+// (kUpdated, kChange). The first publication waits for first_rests rests after motion. Both
+// models age with the random walk, so the published sigma stays honest. Every decision is an
+// event (take_event()). The detector removes the published bias, so a turn held back stays
+// visible as motion-like energy.
+//
+// Units: raw gyro units (the bias is ADDED to the raw reading, as in the calibration:
+// w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
+// Fixed memory (sizeof about 2.9 KB for float), no allocation, no exceptions. Header-only.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "imucal/field/bias_filter.hpp"
+#include "imucal/models/calibration.hpp"
+#include "imucal/models/temperature_model.hpp"
+#include "imucal/status.hpp"
+#include "imucal/stream/rest_monitor.hpp"
+#include "imucal/stream/ring.hpp"
+#include "imucal/types.hpp"
+
+namespace imucal {
+
+// What the field calibrator is set up with: the rest monitor's settings (noise at rest, the
+// stream checks, the detector; here rests of 1 s or more, in pieces of at most 5 s) and its own.
+// The physical ones are in rad/s; gyro_per_rad_s converts them.
+template <typename Scalar>
+struct FieldSettings : RestMonitorSettings<Scalar> {
+  FieldSettings() {
+    this->min_rest_seconds = Scalar(1);
+    this->max_rest_seconds = Scalar(5);
+    this->follow_rests = false;
+  }
+  Scalar gyro_per_rad_s = std::numeric_limits<Scalar>::quiet_NaN();  // raw units per rad/s
+  // The prior without a stored calibration: bias 0 with this sigma, slope 0 with its sigma.
+  Scalar bias_sigma = Scalar(0.0524);       // rad/s (3 deg/s)
+  Scalar slope_sigma = Scalar(5.2e-4);      // rad/s per deg C (0.03 deg/s/degC)
+  Scalar curvature_sigma = Scalar(1.7e-5);  // rad/s per deg C^2 (0.001 deg/s/degC^2; 0: linear)
+  Scalar walk = Scalar(5.2e-6);             // rate random walk, rad/s/sqrt(s) (3e-4 deg/s/sqrt s)
+  Scalar floor = Scalar(1.7e-5);            // a rest mean's sigma is at least this (rad/s)
+  Scalar change_sigma = Scalar(0.0175);     // a knock's step: its prior sigma (rad/s, 1 deg/s)
+  Scalar turn_rate_max = Scalar(3e-4);      // gravity turning faster (rad/s) is not a rest
+  // With a magnetometer, two pieces of one rest whose mean fields differ by more than their
+  // noise allows (chi-square(3) above gate_chi2, the noise measured over each piece) turned,
+  // about any axis, or a magnet passed: both are refused. Pieces whose field held still are
+  // verified: a turn about the vertical would have shown.
+  // Verified pieces this far apart (s) within one rest count as independent rests, and a
+  // verified piece this long after a held one confirms a change.
+  Scalar confirm_seconds = Scalar(10);
+  // Without verification, a change is confirmed once the rests have disagreed with the model
+  // (and agreed with each other) this long, across motion (s): longer than a vehicle's bend.
+  Scalar change_seconds = Scalar(600);
+  Scalar gate_chi2 = Scalar(16.27);    // chi-square(3) at 0.1 %: a rest the filter takes
+  Scalar publish_chi2 = Scalar(7.81);  // chi-square(3) at 5 %: the published one is replaced
+  // ... or when the filter's variance at the temperature now is at most this share of the
+  // published one's (a much better estimate, within the published one's error bars).
+  Scalar better_ratio = Scalar(0.25);
+  Scalar temperature_margin_c = Scalar(5);  // the model is not extrapolated further than this
+  Scalar temperature_seconds = Scalar(2);   // the temperature's smoothing (its noise removed)
+  int first_rests = 2;                      // rests after motion before the first publication
+};
+
+enum class FieldEventKind : std::uint8_t {
+  kUpdated = 0,         // the published bias changed
+  kRejected = 1,        // a rest was refused (reason)
+  kHeld = 2,            // a rest outside the gate: held until a later rest confirms or drops it
+  kChangeDetected = 3,  // two rests after motion agree on a bias the filter did not predict
+};
+
+enum class FieldReason : std::uint8_t {
+  kNone = 0,
+  kTurning = 1,       // the gravity direction turned during the rest
+  kInconsistent = 2,  // outside the gate of the filter's prediction
+  kUnconfirmed = 3,   // a held rest that the next rest after motion did not confirm
+  kSignificant = 4,   // (kUpdated) the filter differs significantly and is better
+  kChange = 5,        // (kUpdated) after a change
+  kFirst = 6,         // (kUpdated) the first publication
+  kBetter = 7,        // (kUpdated) the filter's variance is a small share of the published one's
+};
+
+inline const char* field_event_name(FieldEventKind k) {
+  switch (k) {
+    case FieldEventKind::kUpdated:
+      return "updated";
+    case FieldEventKind::kRejected:
+      return "rejected";
+    case FieldEventKind::kHeld:
+      return "held";
+    default:
+      return "change_detected";
+  }
+}
+
+inline const char* field_reason_name(FieldReason r) {
+  switch (r) {
+    case FieldReason::kNone:
+      return "none";
+    case FieldReason::kTurning:
+      return "turning";
+    case FieldReason::kInconsistent:
+      return "inconsistent";
+    case FieldReason::kUnconfirmed:
+      return "unconfirmed";
+    case FieldReason::kSignificant:
+      return "significant";
+    case FieldReason::kChange:
+      return "change";
+    case FieldReason::kFirst:
+      return "first";
+    default:
+      return "better";
+  }
+}
+
+// One decision. value: the published bias at temperature_c after it (raw, added); chi2: the
+// statistic it was decided by (the gate's, the publication's, or the turn rate over its bound).
+template <typename Scalar>
+struct FieldEvent {
+  FieldEventKind kind = FieldEventKind::kUpdated;
+  FieldReason reason = FieldReason::kNone;
+  std::uint32_t time_s = 0;  // seconds since the calibrator started (the stream's clock)
+  Scalar temperature_c = std::numeric_limits<Scalar>::quiet_NaN();
+  Scalar chi2 = Scalar(0);
+  Vector3<Scalar> value = Vector3<Scalar>::Zero();
+};
+
+// How many rests went where.
+struct FieldCounts {
+  std::uint32_t rests = 0;    // handed out by the rest monitor
+  std::uint32_t taken = 0;    // into the filter
+  std::uint32_t turning = 0;  // refused: gravity turned
+  std::uint32_t held = 0;     // outside the gate
+  std::uint32_t unconfirmed = 0;
+  std::uint32_t changes = 0;
+  std::uint32_t updates = 0;  // publications
+  std::uint32_t events_dropped = 0;
+};
+
+template <typename Scalar, int Events = 8>
+class FieldCalibrator {
+ public:
+  using Settings = FieldSettings<Scalar>;
+
+  FieldCalibrator() = default;
+
+  // Starts from a stored calibration (its gyro bias and sigma, and its temperature model's gyro
+  // part if usable) or, with nullptr, from the nominal prior. kInvalidArgument: settings out of
+  // range (then add() refuses every sample); kNonFiniteInput: the prior holds a NaN or infinity
+  // (the nominal prior is used instead).
+  Status start(const Settings& settings, const Calibration<Scalar>* prior = nullptr,
+               const TemperatureModel<Scalar>* temperature = nullptr) {
+    settings_ = settings;
+    valid_ = check(settings) && monitor_.reset(settings) == Status::kOk;
+    gyro_cue_ = false;
+    events_.clear();
+    counts_ = FieldCounts{};
+    clock_started_ = false;
+    elapsed_us_ = 0;
+    last_t_us_ = 0;
+    filter_time_us_ = 0;
+    pending_ = candidate_ = false;
+    group_ = 0;
+    independent_ = 0;
+    mag_sum_.setZero();
+    mag_sq_ = Scalar(0);
+    mag_n_ = 0;
+    temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
+    temperature_us_ = 0;
+    doubt_ = Scalar(0);
+    if (!valid_) return Status::kInvalidArgument;
+    const Scalar k = settings.gyro_per_rad_s;
+    q_ = settings.walk * k * settings.walk * k;
+    floor2_ = settings.floor * k * settings.floor * k;
+    noise_axis_ = settings.gyro_noise / Scalar(3);
+    filter_.start(Vector3<Scalar>::Zero(), settings.bias_sigma * k, Vector3<Scalar>::Zero(),
+                  settings.slope_sigma * k, Vector3<Scalar>::Zero(), settings.curvature_sigma * k,
+                  Scalar(25));
+    published_ = filter_;
+    has_published_ = false;
+    Status result = Status::kOk;
+    if (prior != nullptr) {
+      if (succeeded(prior->gyro.status) && all_finite(prior->gyro.params) &&
+          all_finite(prior->gyro.sigma)) {
+        const Vector3<Scalar> b(prior->gyro.params(kGyroBiasX), prior->gyro.params(kGyroBiasY),
+                                prior->gyro.params(kGyroBiasZ));
+        const Vector3<Scalar> sb(prior->gyro.sigma(kGyroBiasX), prior->gyro.sigma(kGyroBiasY),
+                                 prior->gyro.sigma(kGyroBiasZ));
+        Scalar sigma = sb.maxCoeff();
+        if (!(sigma > Scalar(0))) sigma = settings.bias_sigma * k;
+        Scalar t0 = prior->has_temperature && std::isfinite(prior->temperature_c)
+                        ? prior->temperature_c
+                        : Scalar(25);
+        Vector3<Scalar> slope = Vector3<Scalar>::Zero(), curvature = Vector3<Scalar>::Zero();
+        Scalar slope_sigma = settings.slope_sigma * k;
+        Scalar curvature_sigma = settings.curvature_sigma * k;
+        Vector3<Scalar> c = b;
+        if (temperature != nullptr && succeeded(temperature->gyro.status) &&
+            all_finite(temperature->gyro.b0) && all_finite(temperature->gyro.b1) &&
+            std::isfinite(temperature->reference_c)) {
+          t0 = temperature->reference_c;
+          c = temperature->gyro.b0;
+          slope = temperature->gyro.b1;
+          const Scalar s1 = temperature->gyro.b1_sigma.maxCoeff();
+          if (s1 > Scalar(0) && std::isfinite(s1)) slope_sigma = s1;
+          if (temperature->order == 2 && all_finite(temperature->gyro.b2)) {
+            curvature = temperature->gyro.b2;
+            const Scalar s2 = temperature->gyro.b2_sigma.maxCoeff();
+            if (s2 > Scalar(0) && std::isfinite(s2)) curvature_sigma = s2;
+          }
+        }
+        filter_.start(c, sigma, slope, slope_sigma, curvature, curvature_sigma, t0);
+        published_ = filter_;
+        has_published_ = true;
+      } else {
+        result = Status::kNonFiniteInput;
+      }
+    }
+    gyro_cue_ = has_published_;
+    monitor_.reset(monitor_settings(gyro_cue_));
+    detector_temperature_ = temperature_;
+    return result;
+  }
+
+  // One raw sample (the calibrator's ImuSample, raw units, temperature NaN without a sensor):
+  // the rest monitor's statuses (refused, nothing changed: kInvalidArgument, kNonFiniteInput,
+  // kTimeRepeated, kTimeBackwards, kSensorFrozen, kGyroSaturated, kGlitch; taken: kOk or a note).
+  Status add(const ImuSample<Scalar>& s) {
+    if (!valid_) return Status::kInvalidArgument;
+    const Status st = monitor_.add(s);
+    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us, st, s.temperature);
+    return st;
+  }
+
+  // One frame of 16-bit counts and the temperature read with it (NaN: none); as add().
+  Status add_raw(const RawFrame& f, Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
+    if (!valid_) return Status::kInvalidArgument;
+    const Status st = monitor_.add_raw(f, temperature);
+    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us, st, temperature);
+    return st;
+  }
+
+  // A magnetometer reading (raw units) that arrived with the latest sample: it shows a turn
+  // about the vertical that the gyro and the accelerometer cannot tell from a bias. kNonFiniteInput
+  // (nothing taken) for a NaN or infinity.
+  Status add_mag(const Vector3<Scalar>& m) {
+    if (!all_finite(m)) return Status::kNonFiniteInput;
+    if (!monitor_.resting()) {
+      mag_sum_.setZero();
+      mag_sq_ = Scalar(0);
+      mag_n_ = 0;
+      return Status::kOk;
+    }
+    if (mag_n_ == 0) mag_ref_ = m;  // sums about the first reading: noise-sized terms
+    const Vector3<Scalar> d = m - mag_ref_;
+    mag_sum_ += d;
+    mag_sq_ += d.squaredNorm();
+    ++mag_n_;
+    return Status::kOk;
+  }
+
+  // The bias the device applies now: at the smoothed temperature(); as below.
+  bool gyro_bias(Vector3<Scalar>& out, Scalar* sigma = nullptr) const {
+    return gyro_bias(temperature_, out, sigma);
+  }
+
+  // The bias the device applies at temperature t (NaN: at the model's reference; raw, added),
+  // clamped to the temperatures the model saw plus the margin. False before the first
+  // publication (then out is the prior's, or zero).
+  bool gyro_bias(Scalar t, Vector3<Scalar>& out, Scalar* sigma = nullptr) const {
+    out = published_.at(t, settings_.temperature_margin_c);
+    if (sigma != nullptr) *sigma = std::sqrt(published_.variance_at(t) + doubt_);
+    return has_published_;
+  }
+
+  // The published model as the library's temperature model's gyro part (order 1), for the
+  // corrector: b0, b1 and their sigmas, the reference and the range (the temperatures seen plus
+  // the margin; the reference alone before any). The accelerometer's part is left as it was.
+  void published_model(TemperatureModel<Scalar>& out) const {
+    out.order = 2;
+    out.reference_c = published_.reference_c;
+    const Scalar m = settings_.temperature_margin_c;
+    out.min_c = published_.seen_temperature() ? published_.min_c - m : published_.reference_c;
+    out.max_c = published_.seen_temperature() ? published_.max_c + m : published_.reference_c;
+    out.gyro.b0 = published_.c;
+    out.gyro.b1 = published_.s;
+    out.gyro.b2 = published_.q;
+    out.gyro.b0_sigma.setConstant(std::sqrt(published_.p(0, 0)));
+    out.gyro.b1_sigma.setConstant(std::sqrt(published_.p(1, 1)));
+    out.gyro.b2_sigma.setConstant(std::sqrt(published_.p(2, 2)));
+    out.gyro.status = has_published_ ? Status::kOk : Status::kNotStarted;
+  }
+
+  // The oldest decision not taken yet; false if none. Events wait in a ring of Events; beyond
+  // that the oldest is overwritten (counts().events_dropped).
+  bool take_event(FieldEvent<Scalar>& out) {
+    if (events_.empty()) return false;
+    out = events_.oldest();
+    events_.pop();
+    return true;
+  }
+
+  bool published() const { return has_published_; }
+  const BiasFilter<Scalar>& published_filter() const { return published_; }
+  const BiasFilter<Scalar>& filter() const { return filter_; }
+  const FieldCounts& counts() const { return counts_; }
+  const RestMonitor<Scalar, 2>& monitor() const { return monitor_; }
+  const Settings& settings() const { return settings_; }
+  // The temperature smoothed over temperature_seconds (NaN before any reading).
+  Scalar temperature() const { return temperature_; }
+  // Seconds since start() on the stream's clock.
+  Scalar seconds() const { return static_cast<Scalar>(elapsed_us_ / 1000u) * Scalar(1e-3); }
+
+ private:
+  static bool check(const Settings& s) {
+    const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
+    return positive(s.gyro_per_rad_s) && positive(s.bias_sigma) && std::isfinite(s.slope_sigma) &&
+           s.slope_sigma >= Scalar(0) && std::isfinite(s.walk) && s.walk >= Scalar(0) &&
+           std::isfinite(s.floor) && s.floor >= Scalar(0) && positive(s.change_sigma) &&
+           positive(s.turn_rate_max) && positive(s.gate_chi2) && positive(s.publish_chi2) &&
+           std::isfinite(s.confirm_seconds) && std::isfinite(s.change_seconds) &&
+           s.change_seconds >= Scalar(0) && s.confirm_seconds >= Scalar(0) &&
+           positive(s.better_ratio) && s.better_ratio < Scalar(1) &&
+           std::isfinite(s.temperature_margin_c) && s.temperature_margin_c >= Scalar(0) &&
+           positive(s.temperature_seconds) && s.first_rests >= 1 && positive(s.gyro_noise);
+  }
+
+  struct Piece {
+    Vector3<Scalar> z = Vector3<Scalar>::Zero();    // the bias it measures (added, raw)
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero();  // mean accelerometer (raw)
+    Vector3<Scalar> mag = Vector3<Scalar>::Zero();  // mean magnetometer (raw; with has_mag)
+    Scalar mag_var = Scalar(0);                     // the variance of that mean, summed over axes
+    bool has_mag = false;
+    bool steady = false;        // the piece before in its rest agreed: same rate, same gravity
+    bool verified = false;      // ... and the same field (no turn about the vertical either)
+    Scalar turned = Scalar(0);  // above 1: it turned (the rate over its bound) from a neighbour
+    Scalar r = Scalar(0);       // each axis's variance of z
+    Scalar t = Scalar(0);       // temperature (NaN: none)
+    std::uint64_t mid_us = 0, end_us = 0;  // on the elapsed clock
+    std::uint32_t group = 0;               // rests between motions share a group
+  };
+
+  void after_sample(std::uint32_t t_us, Status st, Scalar temperature) {
+    if (!clock_started_) {
+      clock_started_ = true;
+    } else if (st != Status::kClockReset) {
+      elapsed_us_ += static_cast<std::uint32_t>(t_us - last_t_us_);
+    }
+    last_t_us_ = t_us;
+    if (!std::isnan(temperature) && st != Status::kTemperatureImplausible) {
+      // The readings smoothed over temperature_seconds (a reading's noise times the model's
+      // slope would otherwise be an error of the bias applied), without the lag of a plain
+      // moving mean on a warming board: twice the moving mean less its own moving mean follows
+      // a ramp exactly.
+      const std::uint64_t since = elapsed_us_ - temperature_us_;
+      temperature_us_ = elapsed_us_;
+      if (std::isnan(temperature_) || since > 600000000u) {
+        temp_mean_ = temp_mean2_ = temperature_ = temperature;
+      } else {
+        Scalar w = static_cast<Scalar>(since) * Scalar(1e-6) / settings_.temperature_seconds;
+        if (w > Scalar(1)) w = Scalar(1);
+        temp_mean_ += w * (temperature - temp_mean_);
+        temp_mean2_ += w * (temp_mean_ - temp_mean2_);
+        temperature_ = Scalar(2) * temp_mean_ - temp_mean2_;
+      }
+      // The detector removes the published bias at the temperature now.
+      if (has_published_ && !(std::fabs(temperature_ - detector_temperature_) <= Scalar(0.25)))
+        set_detector_bias();
+    }
+    RestSummary<Scalar> r;
+    while (monitor_.take(r)) on_rest(r);
+    if (pending_ && !monitor_.resting()) {  // the rest is over: its last piece is judged
+      judge(pending_piece_);
+      pending_ = false;
+    }
+  }
+
+  // Where a timestamp of the recent past lies on the elapsed clock.
+  std::uint64_t elapsed_at(std::uint32_t t_us) const {
+    const std::uint32_t back = last_t_us_ - t_us;
+    return back <= elapsed_us_ ? elapsed_us_ - back : 0u;
+  }
+
+  void on_rest(const RestSummary<Scalar>& r) {
+    ++counts_.rests;
+    if (r.after_motion) ++group_;
+    Piece p;
+    p.z = -r.gyro_mean;
+    p.acc = r.accel_mean;
+    p.r = noise_axis_ / static_cast<Scalar>(r.samples) + q_ * r.duration_s / Scalar(3) + floor2_;
+    p.t = r.has_temperature ? r.temperature_c : std::numeric_limits<Scalar>::quiet_NaN();
+    p.end_us = elapsed_at(r.end_us);
+    p.mid_us = elapsed_at(r.begin_us / 2u + r.end_us / 2u + (r.begin_us & r.end_us & 1u));
+    if (r.end_us < r.begin_us) p.mid_us = p.end_us;  // the timer wrapped inside the rest
+    p.group = group_;
+    // A rest that disagrees with the published bias widens its stated sigma at once, until the
+    // rest is judged (a knock shows here a piece before it can be confirmed).
+    if (has_published_) {
+      const Vector3<Scalar> nu = p.z - published_.value(published_.offset(p.t));
+      const Scalar var = published_.variance(published_.offset(p.t)) + p.r;
+      if (nu.squaredNorm() / var > settings_.gate_chi2) {
+        const Scalar d = nu.squaredNorm() / Scalar(3);
+        if (d > doubt_) doubt_ = d;
+      }
+    }
+    if (mag_n_ > 1) {
+      const Scalar n = static_cast<Scalar>(mag_n_);
+      const Vector3<Scalar> mean = mag_sum_ / n;
+      p.mag = mag_ref_ + mean;
+      // The variance of one reading (summed over the axes) over n: that of the mean.
+      const Scalar var = (mag_sq_ - n * mean.squaredNorm()) / (n - Scalar(1));
+      p.mag_var = (var > Scalar(0) ? var : Scalar(0)) / n;
+      p.has_mag = true;
+    }
+    mag_sum_.setZero();
+    mag_sq_ = Scalar(0);
+    mag_n_ = 0;
+    if (pending_) {
+      if (!r.after_motion && pending_piece_.group == p.group) {
+        // Both pieces of a pair that turned are refused.
+        Scalar ratio =
+            turn_rate(pending_piece_.acc, p.acc, pending_piece_, p) / settings_.turn_rate_max;
+        if (!(ratio > Scalar(1)) && pending_piece_.has_mag && p.has_mag) {
+          ratio = field_change(pending_piece_, p) / settings_.gate_chi2;
+          p.verified = !(ratio > Scalar(1));
+        }
+        // The rate itself changed between the pieces (the tail of a slow turn): the earlier
+        // piece is refused. Otherwise the later one is steady: a rest of its own length at least
+        // before it held the same rate and the same gravity direction.
+        if (!(ratio > Scalar(1))) {
+          if ((p.z - pending_piece_.z).squaredNorm() / (p.r + pending_piece_.r) >
+              settings_.gate_chi2) {
+            pending_piece_.turned = Scalar(2);
+            p.verified = false;
+          } else {
+            p.steady = true;
+          }
+        }
+        if (ratio > Scalar(1)) {
+          p.turned = ratio;
+          if (!(pending_piece_.turned > Scalar(1))) pending_piece_.turned = ratio;
+        }
+      }
+      judge(pending_piece_);
+    }
+    pending_piece_ = p;
+    pending_ = true;
+  }
+
+  // The turn rate of a direction between two pieces (rad/s): the angle from u to v over the time
+  // between the pieces' middles.
+  static Scalar turn_rate(const Vector3<Scalar>& u, const Vector3<Scalar>& v, const Piece& a,
+                          const Piece& b) {
+    const Scalar nu = u.norm(), nv = v.norm();
+    if (!(nu > Scalar(0)) || !(nv > Scalar(0)) || b.mid_us <= a.mid_us) return Scalar(0);
+    const Scalar angle = u.cross(v).norm() / (nu * nv);
+    return angle / (static_cast<Scalar>(b.mid_us - a.mid_us) * Scalar(1e-6));
+  }
+
+  // The magnetic field's change between two pieces against the noise of their means (a
+  // chi-square with three degrees of freedom): a turn by angle a about any axis moves the earth's
+  // field by a times its part across that axis; a passing magnet moves it too (refused alike).
+  static Scalar field_change(const Piece& a, const Piece& b) {
+    const Scalar per_axis = (a.mag_var + b.mag_var) / Scalar(3);
+    return (b.mag - a.mag).squaredNorm() / std::fmax(per_axis, Scalar(1e-30));
+  }
+
+  void predict_to(std::uint64_t t_us) {
+    if (t_us > filter_time_us_) {
+      const Scalar dt = static_cast<Scalar>(t_us - filter_time_us_) * Scalar(1e-6);
+      filter_.predict(dt, q_);
+      published_.predict(dt, q_);
+      if (candidate_) candidate_piece_.r += q_ * dt;  // its bias walked since
+      filter_time_us_ = t_us;
+    }
+  }
+
+  void judge(const Piece& p) {
+    if (p.turned > Scalar(1)) {
+      event(FieldEventKind::kRejected, FieldReason::kTurning, p.t, p.turned);
+      ++counts_.turning;
+      return;
+    }
+    predict_to(p.end_us);
+    const Scalar chi2 = filter_.chi2(p.z, p.r, p.t);
+    if (chi2 <= settings_.gate_chi2) {
+      take(p);
+      if (candidate_) {
+        candidate_ = false;
+        ++counts_.unconfirmed;
+        event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, candidate_piece_.t, chi2);
+      }
+      // Published while at rest only: the last piece of a rest is judged once motion came (a
+      // knock steps the bias), and the next rest's pieces publish it.
+      if (monitor_.resting()) consider_publishing(p.t);
+      if (!candidate_ && published_.chi2(p.z, p.r, p.t) <= settings_.gate_chi2) doubt_ = Scalar(0);
+      return;
+    }
+    if (candidate_) {
+      const Scalar agree = agreement(candidate_piece_, p);
+      if (agree <= settings_.gate_chi2) {
+        if (confirms(p)) {  // a change, confirmed
+          candidate_ = false;
+          ++counts_.changes;
+          event(FieldEventKind::kChangeDetected, FieldReason::kNone, p.t, chi2);
+          filter_.inflate(change_var());
+          take(candidate_piece_);
+          take(p);
+          publish(FieldReason::kChange, p.t, chi2);
+          return;
+        }
+        // Held together with the candidate: their weighted mean, at the later temperature.
+        Piece& c = candidate_piece_;
+        const Scalar r = c.r * p.r / (c.r + p.r);
+        c.z = (c.z * p.r + p.z * c.r) / (c.r + p.r);
+        c.r = r;
+        c.t = p.t;
+        c.end_us = p.end_us;
+        if (p.group != c.group && p.steady) {
+          c.group = p.group;
+          ++candidate_groups_;
+        }
+        ++counts_.held;
+        event(FieldEventKind::kHeld, FieldReason::kInconsistent, p.t, chi2);
+        return;
+      }
+      ++counts_.unconfirmed;
+      event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, candidate_piece_.t, agree);
+    }
+    candidate_piece_ = p;
+    candidate_ = true;
+    candidate_first_us_ = p.mid_us;
+    candidate_groups_ = p.steady ? 1u : 0u;
+    ++counts_.held;
+    event(FieldEventKind::kHeld, FieldReason::kInconsistent, p.t, chi2);
+  }
+
+  // The chi-square(3) of two measurements' difference once the model's change between their
+  // temperatures is removed.
+  Scalar agreement(const Piece& a, const Piece& b) const {
+    const Vector3<Scalar> dh =
+        BiasFilter<Scalar>::h(filter_.offset(b.t)) - BiasFilter<Scalar>::h(filter_.offset(a.t));
+    const Scalar v = a.r + b.r + dh.dot(filter_.p * dh);
+    const Vector3<Scalar> model_change = dh(1) * filter_.s + dh(2) * filter_.q;
+    return (b.z - a.z - model_change).squaredNorm() / v;
+  }
+
+  // A piece that agrees with the held candidate confirms a change when it is verified (the field
+  // held still: not a turn) confirm_seconds after the candidate began, or when it makes three
+  // steady rests between motions that agree over change_seconds (a chance agreement of unrelated
+  // turns is unlikely; the ramps of one turn are not steady).
+  bool confirms(const Piece& p) const {
+    if (!p.steady) return false;
+    const Scalar held = static_cast<Scalar>(p.mid_us - candidate_first_us_) * Scalar(1e-6);
+    const std::uint32_t groups = candidate_groups_ + (p.group != candidate_piece_.group ? 1u : 0u);
+    return (p.verified && held >= settings_.confirm_seconds) ||
+           (groups >= 3u && held >= settings_.change_seconds);
+  }
+
+  Scalar change_var() const {
+    const Scalar s = settings_.change_sigma * settings_.gyro_per_rad_s;
+    return s * s;
+  }
+
+  // A later piece is independent of an earlier one when motion came between them, or when it
+  // is verified (the field held still: no turn about the vertical) and confirm_seconds later.
+  bool independent_of(const Piece& earlier, const Piece& later) const {
+    if (later.group != earlier.group) return true;
+    return later.verified && static_cast<Scalar>(later.mid_us - earlier.mid_us) * Scalar(1e-6) >=
+                                 settings_.confirm_seconds;
+  }
+
+  void take(const Piece& p) {
+    filter_.update(p.z, p.r, p.t);
+    ++counts_.taken;
+    if (independent_ == 0 || independent_of(last_independent_, p)) {
+      last_independent_ = p;
+      ++independent_;
+    }
+  }
+
+  // The filter's model replaces the published one where it is significantly different and better
+  // at the temperature of the rest just taken.
+  void consider_publishing(Scalar t) {
+    if (!has_published_) {
+      if (independent_ >= static_cast<std::uint32_t>(settings_.first_rests))
+        publish(FieldReason::kFirst, t, Scalar(0));
+      return;
+    }
+    const Scalar d = filter_.offset(t);
+    const Scalar vf = filter_.variance(d);
+    const Scalar vp = published_.variance(published_.offset(t));
+    const Vector3<Scalar> diff = filter_.value(d) - published_.value(published_.offset(t));
+    const Scalar chi2 = diff.squaredNorm() / (vf + vp);
+    if (vf < vp && chi2 > settings_.publish_chi2)
+      publish(FieldReason::kSignificant, t, chi2);
+    else if (vf <= settings_.better_ratio * vp)
+      publish(FieldReason::kBetter, t, chi2);
+  }
+
+  void publish(FieldReason why, Scalar t, Scalar chi2) {
+    published_ = filter_;
+    doubt_ = Scalar(0);
+    has_published_ = true;
+    ++counts_.updates;
+    event(FieldEventKind::kUpdated, why, t, chi2);
+    if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
+      monitor_.reset(monitor_settings(true));
+      gyro_cue_ = true;
+      pending_ = false;
+    }
+    set_detector_bias();
+  }
+
+  // The detector removes the published bias at the temperature now.
+  void set_detector_bias() {
+    detector_temperature_ = temperature_;
+    monitor_.set_gyro_rest_reading(-published_.at(temperature_, settings_.temperature_margin_c));
+  }
+
+  // The rest monitor's settings: without a published bias the gyro is no cue (a bias of degrees
+  // per second unremoved would read as motion), the accelerometer alone tells rests.
+  RestMonitorSettings<Scalar> monitor_settings(bool gyro_cue) const {
+    RestMonitorSettings<Scalar> m = settings_;
+    if (!gyro_cue) m.gyro_noise = Scalar(0);
+    m.gyro_rest_reading = -published_.at(temperature_, settings_.temperature_margin_c);
+    m.follow_rests = false;
+    return m;
+  }
+
+  void event(FieldEventKind kind, FieldReason why, Scalar t, Scalar chi2) {
+    FieldEvent<Scalar> e;
+    e.kind = kind;
+    e.reason = why;
+    e.time_s = static_cast<std::uint32_t>(elapsed_us_ / 1000000u);
+    e.temperature_c = t;
+    e.chi2 = chi2;
+    e.value = published_.at(t, settings_.temperature_margin_c);
+    if (events_.push(e)) ++counts_.events_dropped;
+  }
+
+  Settings settings_{};
+  bool valid_ = false;
+  RestMonitor<Scalar, 2> monitor_{};
+  BiasFilter<Scalar> filter_{}, published_{};
+  bool has_published_ = false;
+  // Added to the published variance while rests disagree with it and the disagreement is not
+  // resolved (a held candidate): the mean square of the largest disagreement per axis.
+  Scalar doubt_ = Scalar(0);
+  bool gyro_cue_ = false;  // the detector uses the gyro (from the first publication on)
+  Scalar q_ = Scalar(0), floor2_ = Scalar(0), noise_axis_ = Scalar(0);
+  Scalar temperature_ = std::numeric_limits<Scalar>::quiet_NaN();  // the readings' moving mean
+  std::uint64_t temperature_us_ = 0;                               // its latest reading
+  Scalar temp_mean_ = Scalar(0), temp_mean2_ = Scalar(0);          // the moving mean, and its own
+  bool clock_started_ = false;
+  std::uint32_t last_t_us_ = 0;
+  std::uint64_t elapsed_us_ = 0, filter_time_us_ = 0;
+  Piece pending_piece_{}, candidate_piece_{}, last_independent_{};
+  std::uint64_t candidate_first_us_ = 0;  // when the held candidate began
+  std::uint32_t candidate_groups_ = 0;    // steady rests between motions in the candidate
+  Vector3<Scalar> mag_sum_ = Vector3<Scalar>::Zero();  // the field over the rest piece so far,
+  Vector3<Scalar> mag_ref_ = Vector3<Scalar>::Zero();  // about its first reading
+  Scalar mag_sq_ = Scalar(0);
+  std::uint32_t mag_n_ = 0;
+  bool pending_ = false, candidate_ = false;
+  Scalar detector_temperature_ = Scalar(0);  // where the detector's bias was set
+  std::uint32_t group_ = 0, independent_ = 0;
+  FieldCounts counts_{};
+  Ring<FieldEvent<Scalar>, Events> events_{};
+};
+
+}  // namespace imucal
