@@ -12,6 +12,8 @@
 
 #include "imucal/field/bias_filter.hpp"
 #include "imucal/field/field_calibrator.hpp"
+#include "imucal/field/field_store.hpp"
+#include "imucal/port/sim_nor_flash.hpp"
 #include "imucal/sim/life_sim.hpp"
 #include "imucal/sim/random.hpp"
 
@@ -157,6 +159,25 @@ TEST(FieldCalibrator, BadSamplesAreRefusedWithTheirStatusAndChangeNothing) {
 
 // ---- On simulated lives ----
 
+// The next sample of the life into the calibrator, as a firmware feeds it (frames of counts, the
+// temperature when one was read, the magnetometer when a reading came). False at the life's end.
+bool feed_next(sim::LifeSimulator& life, FieldCalibrator<float>& f, sim::LifeSample& s,
+               sim::LifeTruth& t) {
+  if (!life.next(s, t)) return false;
+  RawFrame fr;
+  fr.t_us = s.t_us;
+  for (std::size_t i = 0; i < 3; ++i) {
+    fr.acc[i] = s.acc_counts[i];
+    fr.gyro[i] = s.gyro_counts[i];
+  }
+  const Status st = f.add_raw(fr, s.temperature_new ? s.imu.temperature : kNaN);
+  EXPECT_TRUE(st == Status::kOk || sample_taken(st)) << to_string(st);
+  if (life.sheet().has_mag && s.mag_new) {
+    EXPECT_EQ(f.add_mag(s.mag), Status::kOk);
+  }
+  return true;
+}
+
 struct LifeRun {
   std::vector<double> err;  // per second, the norm of the published bias's error (mdeg/s)
   double z2 = 0.0;          // sum of (error / sigma)^2 over seconds and axes
@@ -190,17 +211,8 @@ LifeRun run_life(const char* name, double hours, bool mag, std::uint64_t seed = 
   sim::LifeTruth t;
   double next = 1.0;
   std::uint32_t seen_updates = 0;
-  while (life.next(s, t)) {
+  while (feed_next(life, f, s, t)) {
     if (t.phase == sim::PhaseKind::kKnock && out.knock_s < 0.0) out.knock_s = s.t_s;
-    RawFrame fr;
-    fr.t_us = s.t_us;
-    for (std::size_t i = 0; i < 3; ++i) {
-      fr.acc[i] = s.acc_counts[i];
-      fr.gyro[i] = s.gyro_counts[i];
-    }
-    const Status st = f.add_raw(fr, s.temperature_new ? s.imu.temperature : kNaN);
-    EXPECT_TRUE(st == Status::kOk || sample_taken(st)) << to_string(st);
-    if (mag && s.mag_new) f.add_mag(s.mag);
     FieldEvent<float> e;
     while (f.take_event(e))
       if (e.kind == FieldEventKind::kChangeDetected && out.knock_s >= 0.0 &&
@@ -267,6 +279,136 @@ TEST(FieldLife, VehicleBendsMakeNoFalseUpdate) {
     EXPECT_GT(r.updates, 0u) << "magnetometer " << mag;
     EXPECT_LT(r.median(), 10.0) << "magnetometer " << mag;
   }
+}
+
+// ---- Saved and resumed ----
+
+using Flash = SimNorFlash<2048, 1024, 64>;  // two slots of one 1 KB erase unit
+
+// A desk life through the calibrator, saving as the budget allows; stops once a save is due
+// after `saves` saves (then the calibrator holds an unsaved publication), or at the life's end.
+struct Saving {
+  FieldCalibrator<float> field;
+  std::uint32_t saves = 0;
+  double first_save_s = -1.0;
+  Calibration<float> last_saved{};  // what the last save wrote
+  TemperatureModel<float> last_model{};
+};
+
+void run_saving(Saving& r, Flash& flash, double hours, std::uint32_t stop_after_saves,
+                float interval_s) {
+  sim::LifePlan plan;
+  ASSERT_TRUE(sim::make_life("desk", 3, hours, {}, plan));
+  sim::LifeSimulator life(plan);
+  FieldSettings<float> settings = settings_for(life.sheet());
+  settings.save_interval_s = interval_s;
+  ASSERT_EQ(r.field.start(settings), Status::kOk);
+  RecordStore store(flash);
+  sim::LifeSample s;
+  sim::LifeTruth t;
+  while (feed_next(life, r.field, s, t)) {
+    if (r.saves >= stop_after_saves && r.field.save_due()) return;
+    bool saved = false;
+    ASSERT_EQ(save_field(r.field, store, 7u, 0x6A68u, &saved), Status::kOk);
+    if (!saved) continue;
+    if (r.first_save_s < 0.0) r.first_save_s = s.t_s;
+    ++r.saves;
+    ASSERT_TRUE(r.field.calibration(r.last_saved, r.last_model));
+  }
+}
+
+TEST(FieldStore, SavesWithinTheWearBudgetAndResumesWhereItStopped) {
+  static Flash flash;
+  flash = Flash();
+  static Saving r;
+  r = Saving{};
+  run_saving(r, flash, 30.0, 1000u, 1800.0f);
+  // Publications come every few minutes; saves at most 5 a day, 30 min apart, none in the first
+  // 30 min after start.
+  EXPECT_GE(r.first_save_s, 1800.0);
+  EXPECT_GE(r.saves, 5u);
+  EXPECT_LE(r.saves, 10u);  // 30 h: one day's 5, then at most 5 more
+  EXPECT_EQ(r.field.counts().saves, r.saves);
+  // A reboot: the calibrator resumes from the last record saved.
+  RecordStore store(flash);
+  static FieldCalibrator<float> resumed;
+  CalibrationRecord loaded;
+  ASSERT_EQ(resume_field(resumed, r.field.settings(), store, &loaded), Status::kOk);
+  ASSERT_TRUE(resumed.published());
+  ASSERT_TRUE(loaded.parts & kRecordTemperature) << "the temperature model was left out";
+  EXPECT_EQ(loaded.temperature.order, 2);
+  const float t0 = r.last_model.reference_c;
+  Vector3<float> b;
+  float sigma = 0.0f;
+  ASSERT_TRUE(resumed.gyro_bias(t0, b, &sigma));
+  for (int i = 0; i < 3; ++i) EXPECT_FLOAT_EQ(b(i), r.last_saved.gyro.params(kGyroBiasX + i));
+  EXPECT_NEAR(sigma, r.last_saved.gyro.sigma(kGyroBiasX), 1e-6f);
+  // The model and its range: the same bias at another temperature the model saw.
+  const float t1 = 0.5f * (r.last_model.min_c + r.last_model.max_c) + 2.0f;
+  ASSERT_TRUE(resumed.gyro_bias(t1, b));
+  const Vector3<float> expected = r.last_model.gyro.at(t1, t0);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(b(i), expected(i), 1e-3f) << i;
+}
+
+TEST(FieldStore, APowerCutAtEveryStepOfASaveLosesNothingSaved) {
+  static Flash base_flash;
+  base_flash = Flash();
+  static Saving r;
+  r = Saving{};
+  run_saving(r, base_flash, 12.0, 2u, 600.0f);  // two saves, then one due
+  ASSERT_EQ(r.saves, 2u);
+  ASSERT_TRUE(r.field.save_due());
+  Calibration<float> next;
+  TemperatureModel<float> next_model;
+  ASSERT_TRUE(r.field.calibration(next, next_model));
+  static Flash flash;
+  static FieldCalibrator<float> field, resumed;
+  int completed = 0;
+  for (std::uint32_t n = 0; n < 4000u && completed == 0; ++n) {
+    flash = base_flash;
+    field = r.field;
+    flash.cut_power_after(n);
+    RecordStore store(flash);
+    bool saved = false;
+    const Status s = save_field(field, store, 7u, 0x6A68u, &saved);
+    if (s == Status::kOk) {
+      ASSERT_TRUE(saved);
+      ++completed;
+    } else {
+      EXPECT_TRUE(field.save_due()) << n;  // still due: nothing lost in RAM either
+    }
+    flash.power_on();
+    RecordStore after(flash);
+    ASSERT_EQ(resume_field(resumed, r.field.settings(), after), Status::kOk) << n;
+    Vector3<float> b;
+    ASSERT_TRUE(resumed.gyro_bias(kNaN, b)) << n;
+    const bool old_one = b(0) == r.last_saved.gyro.params(kGyroBiasX);
+    const bool new_one = b(0) == next.gyro.params(kGyroBiasX);
+    EXPECT_TRUE(old_one || new_one) << n;
+    if (s == Status::kOk) {
+      EXPECT_TRUE(new_one) << n;
+    }
+  }
+  EXPECT_EQ(completed, 1);
+}
+
+TEST(FieldStore, CorruptedRecordsLeaveTheNominalPriorAndSayWhy) {
+  static Flash flash;
+  flash = Flash();
+  static Saving r;
+  r = Saving{};
+  run_saving(r, flash, 6.0, 2u, 600.0f);
+  ASSERT_EQ(r.saves, 2u);
+  for (std::uint32_t at : {40u, 1024u + 40u}) flash.raw()[at] ^= 0x10u;  // both records
+  RecordStore store(flash);
+  static FieldCalibrator<float> resumed;
+  const Status s = resume_field(resumed, r.field.settings(), store);
+  EXPECT_NE(s, Status::kOk);
+  EXPECT_FALSE(resumed.published());
+  // It runs on from the nominal prior.
+  ImuSample<float> x;
+  x.acc = Vector3<float>(0, 0, 4096);
+  EXPECT_EQ(resumed.add(x), Status::kOk);
 }
 
 }  // namespace

@@ -80,6 +80,12 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
   Scalar temperature_margin_c = Scalar(5);  // the model is not extrapolated further than this
   Scalar temperature_seconds = Scalar(2);   // the temperature's smoothing (its noise removed)
   int first_rests = 2;                      // rests after motion before the first publication
+  // The wear budget (field.md section 6): a publication is saved at most saves_per_day times a
+  // day and save_interval_s apart, the first save_interval_s after start() (a device that
+  // reboots often never wears the flash). Two slots of 10,000 erase cycles over ten years allow
+  // 5.5 saves a day.
+  Scalar save_interval_s = Scalar(14400);
+  int saves_per_day = 5;
 };
 
 enum class FieldEventKind : std::uint8_t {
@@ -87,6 +93,7 @@ enum class FieldEventKind : std::uint8_t {
   kRejected = 1,        // a rest was refused (reason)
   kHeld = 2,            // a rest outside the gate: held until a later rest confirms or drops it
   kChangeDetected = 3,  // two rests after motion agree on a bias the filter did not predict
+  kSaved = 4,           // the published bias was saved (mark_saved())
 };
 
 enum class FieldReason : std::uint8_t {
@@ -108,8 +115,10 @@ inline const char* field_event_name(FieldEventKind k) {
       return "rejected";
     case FieldEventKind::kHeld:
       return "held";
-    default:
+    case FieldEventKind::kChangeDetected:
       return "change_detected";
+    default:
+      return "saved";
   }
 }
 
@@ -155,6 +164,7 @@ struct FieldCounts {
   std::uint32_t unconfirmed = 0;
   std::uint32_t changes = 0;
   std::uint32_t updates = 0;  // publications
+  std::uint32_t saves = 0;    // publications saved (mark_saved())
   std::uint32_t events_dropped = 0;
 };
 
@@ -199,6 +209,14 @@ class FieldCalibrator {
                   Scalar(25));
     published_ = filter_;
     has_published_ = false;
+    unsaved_ = false;
+    last_save_s_ = 0;
+    day_start_s_ = 0;
+    saves_today_ = 0;
+    // Without a prior: the nominal gyro model (no misalignment, the nominal scale).
+    base_ = Calibration<Scalar>{};
+    base_.gyro.params.template segment<3>(kGyroScaleX).setConstant(Scalar(1) / k);
+    base_.gyro.status = Status::kOk;
     Status result = Status::kOk;
     if (prior != nullptr) {
       if (succeeded(prior->gyro.status) && all_finite(prior->gyro.params) &&
@@ -231,8 +249,14 @@ class FieldCalibrator {
           }
         }
         filter_.start(c, sigma, slope, slope_sigma, curvature, curvature_sigma, t0);
+        if (temperature != nullptr && succeeded(temperature->gyro.status) &&
+            temperature->min_c <= temperature->max_c) {  // the temperatures it saw
+          filter_.min_c = temperature->min_c;
+          filter_.max_c = temperature->max_c;
+        }
         published_ = filter_;
         has_published_ = true;
+        base_ = *prior;
       } else {
         result = Status::kNonFiniteInput;
       }
@@ -299,6 +323,8 @@ class FieldCalibrator {
   // the margin; the reference alone before any). The accelerometer's part is left as it was.
   void published_model(TemperatureModel<Scalar>& out) const {
     out.order = 2;
+    const std::uint32_t n = published_.measurements;  // the rests the model took
+    out.rests = static_cast<int>(n < 1u ? 1u : (n > 65535u ? 65535u : n));
     out.reference_c = published_.reference_c;
     const Scalar m = settings_.temperature_margin_c;
     out.min_c = published_.seen_temperature() ? published_.min_c - m : published_.reference_c;
@@ -310,6 +336,50 @@ class FieldCalibrator {
     out.gyro.b1_sigma.setConstant(std::sqrt(published_.p(1, 1)));
     out.gyro.b2_sigma.setConstant(std::sqrt(published_.p(2, 2)));
     out.gyro.status = has_published_ ? Status::kOk : Status::kNotStarted;
+  }
+
+  // The calibration the device applies now, for the corrector or a record: the prior's (or the
+  // nominal gyro model) with the published gyro bias at the model's reference and its sigma,
+  // and the published model as the temperature model's gyro part. False before the first
+  // publication (then out is the prior's).
+  bool calibration(Calibration<Scalar>& out, TemperatureModel<Scalar>& model) const {
+    out = base_;
+    published_model(model);
+    if (!has_published_) return false;
+    out.gyro.params.template tail<3>() = published_.c;
+    out.gyro.sigma.template tail<3>().setConstant(std::sqrt(published_.p(0, 0)));
+    out.has_temperature = true;
+    out.temperature_c = published_.reference_c;
+    if (out.gyro.moves < 1) {  // the nominal model: the rests its bias came from (a record's
+                               // gyro part counts at least one move)
+      const std::uint32_t n = published_.measurements;
+      out.gyro.moves = static_cast<int>(n < 1u ? 1u : (n > 65535u ? 65535u : n));
+    }
+    return true;
+  }
+
+  // A publication not saved yet, and the wear budget allows a save now.
+  bool save_due() const {
+    if (!unsaved_) return false;
+    const std::uint64_t now = elapsed_us_ / 1000000u;
+    if (static_cast<Scalar>(now - last_save_s_) < settings_.save_interval_s) return false;
+    return now - day_start_s_ >= 86400u ||
+           saves_today_ < static_cast<std::uint32_t>(settings_.saves_per_day);
+  }
+
+  // The publication was saved (the caller's RecordStore::save() returned kOk): counted against
+  // the budget, a kSaved event.
+  void mark_saved() {
+    const std::uint64_t now = elapsed_us_ / 1000000u;
+    if (now - day_start_s_ >= 86400u) {
+      day_start_s_ = now;
+      saves_today_ = 0;
+    }
+    ++saves_today_;
+    last_save_s_ = now;
+    unsaved_ = false;
+    ++counts_.saves;
+    event(FieldEventKind::kSaved, FieldReason::kNone, temperature_, Scalar(0));
   }
 
   // The oldest decision not taken yet; false if none. Events wait in a ring of Events; beyond
@@ -343,7 +413,8 @@ class FieldCalibrator {
            s.change_seconds >= Scalar(0) && s.confirm_seconds >= Scalar(0) &&
            positive(s.better_ratio) && s.better_ratio < Scalar(1) &&
            std::isfinite(s.temperature_margin_c) && s.temperature_margin_c >= Scalar(0) &&
-           positive(s.temperature_seconds) && s.first_rests >= 1 && positive(s.gyro_noise);
+           positive(s.temperature_seconds) && s.first_rests >= 1 && positive(s.gyro_noise) &&
+           positive(s.save_interval_s) && s.saves_per_day >= 1;
   }
 
   struct Piece {
@@ -621,6 +692,7 @@ class FieldCalibrator {
 
   void publish(FieldReason why, Scalar t, Scalar chi2) {
     published_ = filter_;
+    unsaved_ = true;
     doubt_ = Scalar(0);
     has_published_ = true;
     ++counts_.updates;
@@ -665,6 +737,10 @@ class FieldCalibrator {
   RestMonitor<Scalar, 2> monitor_{};
   BiasFilter<Scalar> filter_{}, published_{};
   bool has_published_ = false;
+  bool unsaved_ = false;  // a publication since the last save
+  std::uint64_t last_save_s_ = 0, day_start_s_ = 0;
+  std::uint32_t saves_today_ = 0;
+  Calibration<Scalar> base_{};  // the prior's calibration, or the nominal gyro model
   // Added to the published variance while rests disagree with it and the disagreement is not
   // resolved (a held candidate): the mean square of the largest disagreement per axis.
   Scalar doubt_ = Scalar(0);

@@ -1,0 +1,66 @@
+// SPDX-License-Identifier: MIT
+// imucal/field/field_store.hpp: the field calibrator's publications to flash and back, through
+// the record store (store/record_store.hpp: power-cut safe, two slots). What is saved is a
+// calibration record: the calibration the device applies (the prior's, or the nominal gyro model,
+// with the published gyro bias) and the published bias-versus-temperature model with its range.
+// After a reboot the calibrator resumes from it: the bias, its sigma, the slope and curvature
+// with theirs, and the temperatures the model saw.
+// Saves follow the calibrator's wear budget (FieldSettings::save_interval_s, saves_per_day):
+// call save_field() whenever convenient (from a task, never an interrupt: it erases flash); it
+// writes only when FieldCalibrator::save_due(). Header-only; links the store.
+#pragma once
+
+#include <cstdint>
+#include <type_traits>
+
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/store/record.hpp"
+#include "imucal/store/record_store.hpp"
+
+namespace imucal {
+
+// Saves the published calibration if a save is due. *saved (if given) says whether it wrote.
+// kOk: saved, or nothing due; otherwise the first failure (make_record()'s kInvalidArgument or
+// kImplausible, the store's kStorageError, kStorageVerifyFailed, kStorageBusy), and the
+// publication stays due: the record load() returns is the previous one or the new one.
+template <int Events>
+Status save_field(FieldCalibrator<float, Events>& field, RecordStore& store,
+                  std::uint32_t device_id, std::uint32_t sensor_id, bool* saved = nullptr,
+                  const MagCalibration<float>* mag = nullptr) {
+  if (saved != nullptr) *saved = false;
+  if (!field.save_due()) return Status::kOk;
+  Calibration<float> calibration;
+  TemperatureModel<float> model;
+  field.calibration(calibration, model);
+  CalibrationRecord record;
+  Status s = make_record(calibration, device_id, sensor_id, record, mag, &model);
+  if (!succeeded(s)) return s;
+  s = store.save(record);
+  if (s != Status::kOk) return s;
+  field.mark_saved();
+  if (saved != nullptr) *saved = true;
+  return Status::kOk;
+}
+
+// Starts the calibrator from the store's record (its gyro part and temperature model), or from
+// the nominal prior when there is none usable: then the store's reason (kNoRecord,
+// kStorageError, a record status) or kNotStarted for a record without a usable gyro part. The
+// calibrator's own refusals (kInvalidArgument for settings out of range) come first.
+template <int Events>
+Status resume_field(FieldCalibrator<float, Events>& field, const FieldSettings<float>& settings,
+                    RecordStore& store, CalibrationRecord* loaded = nullptr) {
+  CalibrationRecord record;
+  const Status s = store.load(record);
+  const bool gyro = s == Status::kOk && (record.parts & kRecordGyro) != 0 &&
+                    succeeded(record.calibration.gyro.status);
+  if (!gyro) {
+    const Status started = field.start(settings);
+    if (started != Status::kOk) return started;
+    return s == Status::kOk ? Status::kNotStarted : s;
+  }
+  if (loaded != nullptr) *loaded = record;
+  const bool model = (record.parts & kRecordTemperature) != 0;
+  return field.start(settings, &record.calibration, model ? &record.temperature : nullptr);
+}
+
+}  // namespace imucal
