@@ -13,6 +13,7 @@
 #include <cstdio>
 
 #include "imucal/calibrator/calibrator.hpp"
+#include "imucal/stream/rest_monitor.hpp"
 #include "markers.hpp"
 #include "stack_paint.hpp"
 #include "support/xsens_reader.hpp"
@@ -220,5 +221,7 @@ int main() {
       static_cast<unsigned>(sizeof(Calibrator<float, 32, 400>)),
       static_cast<unsigned>(sizeof(Calibrator<float, 24, 630>)),
       static_cast<unsigned>(sizeof(Calibrator<float, 24, 315>)));
+  std::printf("RESULT sizeof RestMonitor<float> %u\n",
+              static_cast<unsigned>(sizeof(RestMonitor<float>)));
   return succeeded(solved) && raw_paths() ? 0 : 1;
 }

@@ -135,6 +135,21 @@ constexpr bool kLongMultiplyIsACall = true;
 constexpr bool kLongMultiplyIsACall = false;
 #endif
 
+// Whether the scalar type's arithmetic is in hardware (an FPU, or a host): there, converting a
+// sub-block's limits costs less than comparing them with the previous sub-block's.
+template <typename Scalar>
+constexpr bool hardware_float() {
+#if defined(__x86_64__) || defined(__i386__) || defined(__aarch64__)
+  return true;
+#elif defined(__ARM_FP)
+  return sizeof(Scalar) == 4 ? (__ARM_FP & 4) != 0 : (__ARM_FP & 8) != 0;
+#elif defined(__riscv_flen)
+  return static_cast<int>(sizeof(Scalar)) * 8 <= __riscv_flen;
+#else
+  return false;
+#endif
+}
+
 inline bool fits16(std::int32_t x) { return x >= -32768 && x <= 32767; }
 
 // a * b - c * d, exact (in 32 bits when the operands allow and a long multiply is a call).
@@ -305,10 +320,11 @@ class FloatSubBlock {
 template <typename Scalar>
 class RawSubBlock {
  public:
-  // Empty, with the limits for this sub-block. A limit is converted when it differs from the
-  // previous sub-block's (most sub-blocks change none but the reference).
+  // Empty, with the limits for this sub-block. Without hardware floating point a limit is
+  // converted only when it differs from the previous sub-block's (most sub-blocks change none but
+  // the reference); with it every limit is converted, which costs less than the compares.
   void start(const SubBlockLimits<Scalar>& l) {
-    const bool all = !converted_;
+    const bool all = !converted_ || detail::hardware_float<Scalar>();
     converted_ = true;
     if (all || detail::bits_differ(l.gyro_bias, lim_.gyro_bias)) {
       db_zero_ = true;
