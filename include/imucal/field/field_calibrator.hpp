@@ -193,6 +193,7 @@ class FieldCalibrator {
     pending_ = candidate_ = false;
     group_ = 0;
     independent_ = 0;
+    last_taken_group_ = 0;
     mag_sum_.setZero();
     mag_sq_ = Scalar(0);
     mag_n_ = 0;
@@ -285,6 +286,19 @@ class FieldCalibrator {
     return st;
   }
 
+  // The stream ended (or the caller wants what is there now): the rest in progress ends and is
+  // judged, as if motion followed. The next sample starts the stream again, as after a gap.
+  void finish() {
+    if (!valid_) return;
+    monitor_.finish();
+    RestSummary<Scalar> r;
+    while (monitor_.take(r)) on_rest(r);
+    if (pending_) {
+      judge(pending_piece_);
+      pending_ = false;
+    }
+  }
+
   // A magnetometer reading (raw units) that arrived with the latest sample: it shows a turn
   // about the vertical that the gyro and the accelerometer cannot tell from a bias. kNonFiniteInput
   // (nothing taken) for a NaN or infinity.
@@ -318,7 +332,7 @@ class FieldCalibrator {
     return has_published_;
   }
 
-  // The published model as the library's temperature model's gyro part (order 1), for the
+  // The published model as the library's temperature model's gyro part (order 2), for the
   // corrector: b0, b1 and their sigmas, the reference and the range (the temperatures seen plus
   // the margin; the reference alone before any). The accelerometer's part is left as it was.
   void published_model(TemperatureModel<Scalar>& out) const {
@@ -576,15 +590,19 @@ class FieldCalibrator {
     predict_to(p.end_us);
     const Scalar chi2 = filter_.chi2(p.z, p.r, p.t);
     if (chi2 <= settings_.gate_chi2) {
+      const bool first_of_group = p.group != last_taken_group_;
       take(p);
       if (candidate_) {
         candidate_ = false;
         ++counts_.unconfirmed;
         event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, candidate_piece_.t, chi2);
       }
-      // Published while at rest only: the last piece of a rest is judged once motion came (a
-      // knock steps the bias), and the next rest's pieces publish it.
-      if (monitor_.resting()) consider_publishing(p.t);
+      // Published while at rest: the last piece of a rest is judged once motion came, which may
+      // have stepped the bias (a knock). The first publication may also come from the first
+      // rest after motion that agrees with the filter (a stream of short rests publishes too);
+      // later ones wait for a rest long enough to be judged while it lasts (a short rest in a
+      // car may be part of a bend).
+      if (monitor_.resting() || (first_of_group && !has_published_)) consider_publishing(p.t);
       if (!candidate_ && published_.chi2(p.z, p.r, p.t) <= settings_.gate_chi2) doubt_ = Scalar(0);
       return;
     }
@@ -665,6 +683,7 @@ class FieldCalibrator {
   void take(const Piece& p) {
     filter_.update(p.z, p.r, p.t);
     ++counts_.taken;
+    last_taken_group_ = p.group;
     if (independent_ == 0 || independent_of(last_independent_, p)) {
       last_independent_ = p;
       ++independent_;
@@ -761,7 +780,7 @@ class FieldCalibrator {
   std::uint32_t mag_n_ = 0;
   bool pending_ = false, candidate_ = false;
   Scalar detector_temperature_ = Scalar(0);  // where the detector's bias was set
-  std::uint32_t group_ = 0, independent_ = 0;
+  std::uint32_t group_ = 0, independent_ = 0, last_taken_group_ = 0;
   FieldCounts counts_{};
   Ring<FieldEvent<Scalar>, Events> events_{};
 };
