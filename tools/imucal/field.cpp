@@ -353,8 +353,10 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
   std::fprintf(out, "changes  %u detected; %u updates published\n", c.changes, c.updates);
   if (run.published) {
     const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
-    std::fprintf(out, "\ngyro bias published (added to the raw reading), at %s deg C:\n",
-                 fmt("%.2f", run.temperature_c).c_str());
+    std::fprintf(out, "\ngyro bias published (added to the raw reading), %s:\n",
+                 std::isfinite(run.temperature_c)
+                     ? ("at " + fmt("%.2f", run.temperature_c) + " deg C").c_str()
+                     : "no temperature in the input");
     std::fprintf(out, "  b  %s +- %s %s\n", vec_text(run.bias, "% .6g").c_str(),
                  fmt("%.3g", run.sigma).c_str(), gu);
     std::fprintf(out, "     %s +- %s deg/s\n", vec_text(dps, "% .5f").c_str(),
