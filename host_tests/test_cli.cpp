@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -2659,6 +2660,235 @@ TEST(CliEdges, DecimalCommasAreConcludedNotListedLineByLine) {
   EXPECT_NE(r.err.find("decimal comma"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("use '.' as the decimal point"), std::string::npos) << r.err;
   std::remove(path.c_str());
+}
+
+// --- imucal field ------------------------------------------------------------------------------
+
+// The bundled recording (data/simulated_imu.csv).
+std::string bundled_csv() { return IMUCAL_BUNDLED_CSV; }
+
+struct FieldCheck {
+  Json field, calibrate;
+  std::string summary;
+};
+
+// `imucal field` and `imucal calibrate` over the same input (`args`: the files and the options
+// both take): the field calibrator's published bias agrees with calibrate's gyro bias within 3
+// combined sigma on every axis, its event counts are those counts() gave, and the summary shows
+// the run, the bias and the timeline.
+// `published`: whether the bias is published by the end (else the filter's estimate, at
+// calibrate's temperature, is compared: `--at-temperature T0` is added).
+FieldCheck check_field(const std::vector<std::string>& args,
+                       const std::vector<std::string>& field_only, const std::string& name,
+                       bool published = true) {
+  FieldCheck r;
+  const std::string fj = temp_path(name + "_field.json"), cj = temp_path(name + "_cal.json");
+  std::vector<std::string> f = args, c = args;
+  f.insert(f.end(), field_only.begin(), field_only.end());
+  f.insert(f.end(), {"--json", fj, "--quiet"});
+  c.insert(c.end(), {"--json", cj, "--quiet"});
+  testing::internal::CaptureStdout();
+  const int code = calibrate_command(c, false);
+  testing::internal::GetCapturedStdout();
+  EXPECT_EQ(code, 0);
+  r.calibrate = read_json(cj);
+  if (!published) {
+    const double t0 = r.calibrate["temperature"]["reference_c"];
+    f.insert(f.end(), {"--at-temperature", std::to_string(t0)});
+  }
+  const MainRun run = run_main([&] {
+    std::vector<std::string> a = {"field"};
+    a.insert(a.end(), f.begin(), f.end());
+    return a;
+  }());
+  EXPECT_EQ(run.code, published ? 0 : 1) << run.out << run.err;
+  r.summary = run.out;
+  r.field = read_json(fj);
+  std::remove(fj.c_str());
+  std::remove(cj.c_str());
+  if (r.field.is_discarded() || r.calibrate.is_discarded()) {
+    ADD_FAILURE() << "no JSON written\n" << run.out << run.err;
+    return r;
+  }
+  EXPECT_EQ(r.field["gyro_bias"]["published"].get<bool>(), published) << run.out;
+  const Json& b = r.field[published ? "gyro_bias" : "filter_bias_at"];
+  const double sigma = b["sigma"];
+  EXPECT_GT(sigma, 0.0);
+  const char* const names[3] = {"b_x", "b_y", "b_z"};
+  const Json& g = r.calibrate["gyroscope"]["parameters"];
+  for (int a = 0; a < 3; ++a) {
+    const double cv = g[names[a]]["value"], cs = g[names[a]]["sigma"];
+    const double fv = b["value"][static_cast<std::size_t>(a)];
+    const double combined = std::sqrt(sigma * sigma + cs * cs);
+    EXPECT_LE(std::abs(fv - cv), 3 * combined)
+        << names[a] << ": field " << fv << " +- " << sigma << ", calibrate " << cv << " +- " << cs;
+    std::printf("%s: field %.6g +- %.3g, calibrate %.6g +- %.3g: %.2f combined sigma\n", names[a],
+                fv, sigma, cv, cs, std::abs(fv - cv) / combined);
+  }
+  // The timeline holds every event (none dropped), and its kinds and reasons are the counts.
+  const Json& n = r.field["counts"];
+  const Json& timeline = r.field["timeline"];
+  EXPECT_EQ(n["events_dropped"], 0);
+  EXPECT_EQ(r.field["events_not_listed"], 0);
+  EXPECT_EQ(r.field["events"].get<std::size_t>(), timeline.size());
+  std::map<std::string, unsigned> kinds;
+  for (const Json& e : timeline)
+    ++kinds[e["kind"].get<std::string>() + "/" + e["reason"].get<std::string>()];
+  unsigned updates = 0;
+  for (const char* reason : {"significant", "change", "first", "better"})
+    updates += kinds[std::string("updated/") + reason];
+  EXPECT_EQ(updates, n["updates"].get<unsigned>());
+  EXPECT_EQ(updates >= 1u, published);
+  EXPECT_EQ(kinds["updated/first"], published ? 1u : 0u);
+  EXPECT_EQ(kinds["change_detected/none"], n["changes"].get<unsigned>());
+  EXPECT_EQ(kinds["rejected/turning"], n["turning"].get<unsigned>());
+  EXPECT_EQ(kinds["rejected/unconfirmed"], n["unconfirmed"].get<unsigned>());
+  EXPECT_EQ(kinds["held/inconsistent"], n["held"].get<unsigned>());
+  unsigned listed = 0;
+  for (const auto& kv : kinds) listed += kv.second;
+  EXPECT_EQ(listed, timeline.size());  // no kind or reason outside those
+  // Every rest handed out went one way: taken, refused as turning, or held (the last piece of a
+  // rest still open at the end of the input is none of them yet).
+  const unsigned rests = n["rests"], judged = n["taken"].get<unsigned>() +
+                                              n["turning"].get<unsigned>() +
+                                              n["held"].get<unsigned>();
+  EXPECT_LE(judged, rests);
+  EXPECT_GE(judged + 1, rests);
+  EXPECT_GE(n["taken"].get<unsigned>(), 2u);
+  // The last event's bias is the bias published at the end (at its own temperature).
+  if (published && !timeline.empty()) {
+    const Json& last = timeline.back();
+    for (std::size_t a = 0; a < 3; ++a)
+      EXPECT_NEAR(last["bias"][a].get<double>(), b["value"][a].get<double>(), 3 * sigma) << a;
+  }
+  // The summary says the same.
+  char line[128];
+  std::snprintf(line, sizeof line, "rests    %u found: %u taken", rests,
+                n["taken"].get<unsigned>());
+  EXPECT_NE(r.summary.find(line), std::string::npos) << r.summary;
+  EXPECT_NE(r.summary.find(published ? "gyro bias published" : "gyro bias NOT published"),
+            std::string::npos)
+      << r.summary;
+  EXPECT_NE(r.summary.find("timeline (" + std::to_string(timeline.size()) + " event"),
+            std::string::npos)
+      << r.summary;
+  return r;
+}
+
+// Its rests (a hand-turned calibration, 3 to 5 s each) are all taken, but none lasts the three
+// pieces a publication needs: the filter's estimate at calibrate's temperature is compared.
+TEST(CliField, TheBundledRecordingAgreesWithCalibrate) {
+  const FieldCheck r = check_field({bundled_csv()}, {"--gyro-zero", "32768"}, "bundled", false);
+  EXPECT_EQ(r.field["counts"]["taken"], r.field["counts"]["rests"]);
+  std::printf("%s", r.summary.c_str());
+  // The noise from the initial rest (10 s, from the file's own settings) as calibrate measured
+  // it: the same calibrator, the same samples.
+  EXPECT_EQ(r.field["noise"]["source"], "initial rest");
+  const double gv = r.field["noise"]["gyro_variance_raw"];
+  const double g_rads = r.calibrate["gyroscope"]["noise"]["sample_sigma_rads"];
+  const double per_rad_s = r.field["configuration"]["gyro_per_rad_s"];
+  // calibrate converts through the calibrated scale, field keeps raw units: a percent apart.
+  EXPECT_NEAR(std::sqrt(gv / 3) / per_rad_s, g_rads, 0.02 * g_rads);
+  // A short file: every event shown in the summary.
+  const std::size_t events = r.field["timeline"].size();
+  ASSERT_LE(events, 40u);
+  std::size_t rows = 0;
+  for (const Json& e : r.field["timeline"]) {
+    const std::string kind = e["kind"];
+    for (std::size_t at = r.summary.find(" " + kind + " "); at != std::string::npos;
+         at = r.summary.find(" " + kind + " ", at + 1))
+      ++rows;
+  }
+  EXPECT_GE(rows, events);
+  EXPECT_EQ(r.summary.find("not shown"), std::string::npos);
+}
+
+// Started from the calibration calibrate stored (--prior): the bias is there from the first
+// sample, and what the recording then says agrees with it.
+TEST(CliField, StartsFromAStoredRecord) {
+  const std::string rec = temp_path("field_prior.bin"), fj = temp_path("field_prior.json");
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(calibrate_command({bundled_csv(), "--record", rec, "--quiet"}, false), 0);
+  testing::internal::GetCapturedStdout();
+  const MainRun run =
+      run_main({"field", bundled_csv(), "--gyro-zero", "32768", "--prior", rec, "--json", fj});
+  EXPECT_EQ(run.code, 0) << run.err;
+  const Json j = read_json(fj);
+  ASSERT_FALSE(j.is_discarded());
+  EXPECT_EQ(j["configuration"]["prior"], rec);
+  EXPECT_EQ(j["configuration"]["prior_status"], "ok");
+  EXPECT_TRUE(j["gyro_bias"]["published"].get<bool>());
+  // Its first publication is the prior's: no "first" event.
+  for (const Json& e : j["timeline"]) EXPECT_NE(e["reason"], "first");
+  // A file that is no record: the reason `imucal record` gives, exit 2.
+  const MainRun bad = run_main({"field", bundled_csv(), "--prior", bundled_csv()});
+  EXPECT_EQ(bad.code, 2);
+  const MainRun rec_bad = run_main({"record", bundled_csv()});
+  ASSERT_NE(rec_bad.err.find(bundled_csv()), std::string::npos);
+  EXPECT_NE(bad.err.find(rec_bad.err.substr(std::string("imucal: ").size())), std::string::npos)
+      << bad.err << rec_bad.err;
+  for (const std::string& f : {rec, fj}) std::remove(f.c_str());
+}
+
+// A missing file and a NaN line get the messages calibrate gives; options that say nothing to
+// the field calibrator are refused.
+TEST(CliField, BadInputGetsCalibratesMessages) {
+  const std::string missing = temp_path("field_missing.csv");
+  const MainRun f = run_main({"field", missing});
+  const MainRun c = run_main({"calibrate", missing});
+  EXPECT_EQ(f.code, 2);
+  EXPECT_EQ(c.code, 2);
+  EXPECT_NE(f.err.find("cannot open"), std::string::npos) << f.err;
+  EXPECT_EQ(f.err, c.err);
+
+  // The bundled recording with a NaN in one line: reported (file, line, column), the line
+  // skipped, the rest used.
+  const std::string text = file_text(bundled_csv()), nan_csv = temp_path("field_nan.csv");
+  std::size_t at = 0;
+  for (int line = 0; line < 500; ++line) at = text.find('\n', at) + 1;
+  const std::size_t comma = text.find(',', at);
+  const std::size_t next = text.find(',', comma + 1);
+  write_file(nan_csv, text.substr(0, comma + 1) + "nan" + text.substr(next));
+  const MainRun fn = run_main({"field", nan_csv, "--quiet"});
+  const MainRun cn = run_main({"calibrate", nan_csv, "--quiet"});
+  EXPECT_EQ(fn.code, 1) << fn.err;  // as without the NaN: rests taken, none published
+  EXPECT_EQ(cn.code, 0) << cn.err;
+  EXPECT_NE(fn.err.find(nan_csv + ":501:"), std::string::npos) << fn.err;
+  EXPECT_EQ(fn.err, cn.err);
+  EXPECT_NE(fn.out.find("13271 samples"), std::string::npos) << fn.out;
+
+  const MainRun opt = run_main({"field", bundled_csv(), "--header", temp_path("h.h")});
+  EXPECT_EQ(opt.code, 2);
+  EXPECT_NE(opt.err.find("--header does not apply"), std::string::npos) << opt.err;
+  const MainRun cal_opt = run_main({"calibrate", bundled_csv(), "--prior", missing});
+  EXPECT_EQ(cal_opt.code, 2);
+  EXPECT_NE(cal_opt.err.find("--prior is an option of `imucal field`"), std::string::npos);
+  std::remove(nan_csv.c_str());
+}
+
+// The noise given instead of measured: the same decisions within the noise's effect (the bias
+// within the sigmas of calibrate's).
+TEST(CliField, NoiseFromOptions) {
+  const FieldCheck r =
+      check_field({bundled_csv()},
+                  {"--gyro-zero", "32768", "--gyro-noise", "0.0032", "--accel-noise", "0.0079"},
+                  "noise_options", false);
+  EXPECT_EQ(r.field["noise"]["source"], "options");
+  EXPECT_TRUE(r.field["noise"]["initial_rest_end_s"].is_null());
+}
+
+// The xsens recording: the same bias as calibrate's, within 3 combined sigma.
+TEST(CliXsens, FieldCalibratorAgreesWithCalibrate) {
+  IMUCAL_XSENS_DIR_OR_SKIP(dir);
+  char gyro_lsb[32];
+  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
+  const FieldCheck r =
+      check_field({dir + "/xsens_acc.mat", dir + "/xsens_gyro.mat", "--accel-unit", "counts",
+                   "--accel-lsb-per-g", "4070", "--accel-zero", "32768", "--gyro-unit", "counts",
+                   "--gyro-lsb-per-dps", gyro_lsb, "--gravity", "9.81744", "--initial-rest", "40"},
+                  {"--gyro-zero", "32768"}, "xsens");
+  std::printf("%s", r.summary.c_str());
+  EXPECT_EQ(r.field["input"]["samples"], 51175);
 }
 
 }  // namespace

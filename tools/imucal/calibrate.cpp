@@ -2,6 +2,8 @@
 // tools/imucal/calibrate.cpp: `imucal calibrate` and `imucal report`: the recording through the
 // same streaming calibrator as on the device (float, or double with --double), then the
 // residuals before and after, the summary, and the requested outputs.
+#include "calibrate.hpp"
+
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -24,57 +26,6 @@
 namespace imucal::cli {
 
 namespace {
-
-// Shows how far the reading is, on a terminal only (stderr), at most every 64k samples.
-class ProgressLine {
- public:
-  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO) != 0) {}
-  bool due(long samples) const { return enabled_ && (samples & 0xffff) == 0; }
-  void show(long samples, double fraction) {
-    if (fraction > 0) {
-      std::fprintf(stderr, "\r  reading: %3.0f %%, %ld samples", 100.0 * fraction, samples);
-    } else {
-      std::fprintf(stderr, "\r  reading: %ld samples", samples);
-    }
-    shown_ = true;
-  }
-  ~ProgressLine() {
-    if (shown_) std::fprintf(stderr, "\r\033[K");
-  }
-
- private:
-  bool enabled_;
-  bool shown_ = false;
-};
-
-double accel_nominal_scale(const Options& o) {
-  switch (o.accel_unit) {
-    case AccelUnit::kMps2:
-      return 1.0;
-    case AccelUnit::kG:
-      return kStandardGravity;
-    case AccelUnit::kCounts:
-      return kStandardGravity / o.accel_lsb_per_g;  // NaN if not given
-  }
-  return kNaN;
-}
-
-double accel_nominal_zero(const Options& o) {
-  return o.accel_unit == AccelUnit::kCounts ? o.accel_zero : 0.0;
-}
-
-// rad/s per input unit; 0 when unknown (the calibrator then searches it).
-double gyro_nominal_scale(const Options& o) {
-  switch (o.gyro_unit) {
-    case GyroUnit::kRads:
-      return 1.0;
-    case GyroUnit::kDps:
-      return kPi / 180.0;
-    case GyroUnit::kCounts:
-      return std::isfinite(o.gyro_lsb_per_dps) ? kPi / 180.0 / o.gyro_lsb_per_dps : 0.0;
-  }
-  return 0.0;
-}
 
 // uT per input unit of the magnetometer (NaN: counts without --mag-lsb-per-ut).
 double mag_unit_ut(const Options& o) {
@@ -125,19 +76,6 @@ double rms(const std::vector<double>& v) {
     ++n;
   }
   return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
-}
-
-// The device's view of one sample (temperature NaN: none).
-template <typename Scalar>
-ImuSample<Scalar> imu_sample(const Sample& x) {
-  ImuSample<Scalar> s;
-  s.t_us = static_cast<std::uint32_t>(static_cast<std::uint64_t>(x.us) & 0xffffffffu);
-  for (int a = 0; a < 3; ++a) {
-    s.acc(a) = static_cast<Scalar>(x.acc[a]);
-    s.gyro(a) = static_cast<Scalar>(x.gyro[a]);
-  }
-  s.temperature = static_cast<Scalar>(x.temp);
-  return s;
 }
 
 // The temperature model about `base` from the rests (raw means). False if the fit cannot start
@@ -722,6 +660,8 @@ class Input {
   std::string error_;
 };
 
+}  // namespace
+
 template <typename Scalar>
 CalibratorSettings<Scalar> calibrator_settings(const Options& o, const Run& run) {
   CalibratorSettings<Scalar> cs;
@@ -746,6 +686,11 @@ CalibratorSettings<Scalar> calibrator_settings(const Options& o, const Run& run)
     cs.accel_zero_hint = Vector3<Scalar>::Constant(static_cast<Scalar>(zero));
   return cs;
 }
+
+template CalibratorSettings<float> calibrator_settings(const Options&, const Run&);
+template CalibratorSettings<double> calibrator_settings(const Options&, const Run&);
+
+namespace {
 
 // One pass of the streaming calibrator over the samples, as on the device: the rests it handed
 // out (one per pose, for the temperature model), each pose's window on the device's clock
@@ -816,6 +761,8 @@ struct WindowStats {
 
 // --- The steps of one run: read, stream, solve, temperature, assemble, advise, magnetometer ----
 
+}  // namespace
+
 // Read: what the input holds and how it is read (its format, parts, columns, where the time
 // comes from, and so the mode: a stream, a file of poses, a magnetometer alone), from the opened
 // reader and the settled options, into `run`. No sample is read.
@@ -833,6 +780,11 @@ void describe_input(const SampleReader& reader, const Options& o, Run& run) {
                     : o.nominal_rate_hz > 0                                ? "--rate"
                                                                            : "none";
 }
+
+template void describe_input<float>(const SampleReader&, const Options&, Run&);
+template void describe_input<double>(const SampleReader&, const Options&, Run&);
+
+namespace {
 
 // What the first pass leaves for the steps after it.
 template <typename Scalar>
@@ -1355,6 +1307,8 @@ int run_calibration(Options& o, SampleReader& reader, const Reopen& reopen, Diag
   return run.usable ? 0 : 1;
 }
 
+}  // namespace
+
 void print_diagnostics(const Diagnostics& diag) {
   for (const Diagnostic& d : diag.kept()) std::fprintf(stderr, "imucal: %s\n", d.text().c_str());
   if (diag.count() > diag.kept().size())
@@ -1398,6 +1352,8 @@ bool settle_options(SampleReader& reader, Options& o, std::string& error) {
   return true;
 }
 
+namespace {
+
 // The calibration in float (the device's) or double, the diagnostics kept in the run.
 int calibrate_from(Options& o, SampleReader& reader, const Reopen& reopen, Diagnostics& diag,
                    Run& run, std::vector<Sample>& page) {
@@ -1408,6 +1364,8 @@ int calibrate_from(Options& o, SampleReader& reader, const Reopen& reopen, Diagn
   return code;
 }
 
+}  // namespace
+
 // Files that can be read again from their start (not stdin, a pipe or a terminal).
 bool rereadable(const std::vector<std::string>& files) {
   for (const std::string& f : files) {
@@ -1416,8 +1374,6 @@ bool rereadable(const std::vector<std::string>& files) {
   }
   return !files.empty();
 }
-
-}  // namespace
 
 int calibrate_command(const std::vector<std::string>& args, bool report) {
   Options o;
@@ -1431,6 +1387,11 @@ int calibrate_command(const std::vector<std::string>& args, bool report) {
     return 2;
   }
   for (const std::string& k : o.command_line_keys) {
+    if (k == "prior" || k == "gyro-noise" || k == "accel-noise" || k == "gyro-zero" ||
+        k == "at-temperature" || k == "rest-piece") {
+      std::fprintf(stderr, "imucal: --%s is an option of `imucal field`\n", k.c_str());
+      return 2;
+    }
     if ((k == "device-id" || k == "sensor-id") && o.record_path.empty()) {
       std::fprintf(stderr, "imucal: --%s goes into the record: give --record FILE\n", k.c_str());
       return 2;

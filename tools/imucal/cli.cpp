@@ -27,6 +27,9 @@ biases' temperature dependence.
   imucal noise [options] FILE                the noise of a STILL recording (the whole file):
                                              Allan deviation, white noise N, random walk K,
                                              bias instability B, quantisation Q per axis
+  imucal field [options] FILE...             a recording of any length through the field
+                                             calibrator (the gyro bias kept right in use):
+                                             its published bias, rests and timeline
 
 Input: imucal CSV has a header line naming its columns: t, ax, ay, az, gx, gy, gz (optional
 temp, mx, my, mz; any order). The optional fields may be empty or NaN where the sensor gave no
@@ -116,6 +119,23 @@ are reported as counts unless --gyro-lsb-per-dps / --accel-lsb-per-g give the sc
   --svg FILE                      a log-log plot: the deviation with its intervals, the fitted
                                   terms' asymptotes and the model
 
+Field (imucal field; the input, unit, range, --rate, --initial-rest, --memory, --json and
+--quiet options as for calibrate; the gyro's scale is needed: --gyro-lsb-per-dps in counts):
+  --prior RECORD                  start from a calibration record (calibrate --record): its gyro
+                                  bias and sigma, its temperature model; default: bias 0 +- 3 deg/s
+  --gyro-noise RAD_S              the gyro's noise per sample and axis (1e-9 .. 1 rad/s) and the
+  --accel-noise MPS2              accelerometer's (1e-9 .. 10 m/s^2); default: measured over the
+                                  recording's initial rest, as calibrate does
+  --gyro-zero Z                   the gyro's nominal raw reading at zero rate (e.g. 32768 for
+                                  unsigned counts; default 0): the prior's bias is -Z
+  --rest-piece S                  the longest piece a rest is judged in (1 .. 600, default 5): a
+                                  bias is published only from a rest of more than one piece
+  --at-temperature DEGC           the published bias also at this temperature (-60 .. 150)
+  --json FILE                     the counts, the published bias and model, every event
+  The summary: the rests found, taken and refused (why), changes and updates, the published
+  bias with its sigma and temperature model, and the timeline of events (the first 30 and the
+  last 10 of a longer one). Exit code 0 when a bias was published, 1 when none was.
+
 The summary lists every rest found (each a pose), explains its counts, and, when the
 calibration is refused or weak, says why and what to do next.
 The header and the record are written only for a usable calibration, with the parts present.
@@ -149,6 +169,7 @@ int imucal_main(const std::vector<std::string>& args) {
     if (args[0] == "simulate") return stdout_written(simulate_command(rest));
     if (args[0] == "record") return stdout_written(record_command(rest));
     if (args[0] == "noise") return stdout_written(noise_command(rest));
+    if (args[0] == "field") return stdout_written(field_command(rest));
   } catch (const std::bad_alloc&) {
     // calibrate and report keep up to --memory MB of samples between passes.
     std::fprintf(stderr,
@@ -157,9 +178,10 @@ int imucal_main(const std::vector<std::string>& args) {
                  args[0].c_str());
     return 2;
   }
-  std::fprintf(stderr,
-               "imucal: unknown command '%s' (calibrate, report, simulate, record, noise, help)\n",
-               args[0].c_str());
+  std::fprintf(
+      stderr,
+      "imucal: unknown command '%s' (calibrate, report, simulate, record, noise, field, help)\n",
+      args[0].c_str());
   return 2;
 }
 

@@ -5,16 +5,22 @@
 //   imucal simulate -o FILE [--truth FILE] [--seed N] ...   a recording with known truth
 //   imucal record FILE   a device calibration record (calibrate --record), decoded and printed
 //   imucal noise [options] FILE   the noise terms of a still recording (Allan deviation)
+//   imucal field [options] FILE   the field calibrator over a recording: its gyro bias, timeline
 // Exit codes: 0 a usable calibration (of the sensors the input holds) or a command done; 1 the
 // recording did not give a usable calibration, or the record is not valid; 2 a usage error or an
 // unreadable input.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "run.hpp"
+
+namespace imucal {
+struct CalibrationRecord;
+}
 
 namespace imucal::cli {
 
@@ -30,6 +36,13 @@ int calibrate_command(const std::vector<std::string>& args, bool report);
 int simulate_command(const std::vector<std::string>& args);
 int record_command(const std::vector<std::string>& args);
 int noise_command(const std::vector<std::string>& args);
+int field_command(const std::vector<std::string>& args);
+
+// A calibration record's file (calibrate --record, a flash slot's bytes; "-": stdin), read and
+// decoded: 0 a valid record, 1 not one, 2 unreadable; `error` says why, as `imucal record` does.
+// `length`: the record's bytes; `file_size`: the bytes read (at most kRecordMaxBytes).
+int read_record_file(const std::string& path, CalibrationRecord& record, std::string& error,
+                     std::size_t* length = nullptr, std::size_t* file_size = nullptr);
 
 // `imucal calibrate` over samples in memory (the Python package's arrays, read where they are,
 // as often as a file would be: the memory kept is bounded by --memory whatever their length):

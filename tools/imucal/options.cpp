@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// tools/imucal/options.cpp: the calibrate/report options, from the command line and from
+// tools/imucal/options.cpp: the calibrate/report (and noise, field) options, from the command line
+// and from
 // `# imucal: key=value` comments in the input (the command line wins).
 #include <charconv>
 #include <cmath>
@@ -59,6 +60,12 @@ constexpr Key kKeys[] = {
     {"svg", false, Where::kCommandLineOnly},
     {"truth", false, Where::kCommandLineOnly},
     {"kalibr", false, Where::kCommandLineOnly},
+    {"prior", false, Where::kCommandLineOnly},
+    {"gyro-noise", false, Where::kAnywhere},
+    {"accel-noise", false, Where::kAnywhere},
+    {"gyro-zero", false, Where::kAnywhere},
+    {"at-temperature", false, Where::kCommandLineOnly},
+    {"rest-piece", false, Where::kAnywhere},
 };
 
 const Key* find_key(std::string_view name) {
@@ -86,6 +93,11 @@ constexpr Bounds kBounds[] = {
     {"rate", 0.1, 100000, "Hz", "an IMU's sample rate"},
     {"temp-min-span", 0.1, 200, "deg C", "a span of temperatures"},
     {"memory", 4, 1048576, "MB", "a memory to keep samples in"},
+    {"gyro-noise", 1e-9, 1, "rad/s", "a gyroscope's noise per sample"},
+    {"accel-noise", 1e-9, 10, "m/s^2", "an accelerometer's noise per sample"},
+    {"gyro-zero", -2147483648.0, 2147483647.0, "counts", "a 32-bit reading"},
+    {"at-temperature", -60, 150, "deg C", "a temperature the stream checks accept"},
+    {"rest-piece", 1, 600, "s", "a piece of a rest"},
 };
 
 // `value` of option `key` within its Bounds (a key without bounds: any value).
@@ -259,6 +271,18 @@ bool apply(const std::string& key, const std::string& value, Options& o, std::st
     o.truth_path = value;
   } else if (key == "kalibr") {
     o.kalibr_path = value;
+  } else if (key == "prior") {
+    o.prior_path = value;
+  } else if (key == "gyro-noise") {
+    return bounded(key, value, o.gyro_noise, error);
+  } else if (key == "accel-noise") {
+    return bounded(key, value, o.accel_noise, error);
+  } else if (key == "gyro-zero") {
+    return bounded(key, value, o.gyro_zero, error);
+  } else if (key == "rest-piece") {
+    return bounded(key, value, o.rest_piece, error);
+  } else if (key == "at-temperature") {
+    return bounded(key, value, o.at_temperature, error);
   }
   return true;
 }

@@ -160,17 +160,11 @@ void print_record(const CalibrationRecord& r, const std::string& path, std::size
 
 }  // namespace
 
-int record_command(const std::vector<std::string>& args) {
-  if (args.size() != 1 || (args[0].size() > 1 && args[0][0] == '-')) {
-    std::fprintf(stderr,
-                 "imucal record: give one record file (or - for stdin): imucal record FILE\n");
-    return 2;
-  }
-  const std::string& path = args[0];
+int read_record_file(const std::string& path, CalibrationRecord& record, std::string& error,
+                     std::size_t* length, std::size_t* file_size) {
   std::vector<std::uint8_t> bytes;
-  std::string error;
   if (!read_bytes(path, kRecordMaxBytes, bytes, error)) {
-    std::fprintf(stderr, "imucal: cannot read %s: %s\n", path.c_str(), error.c_str());
+    error = "cannot read " + path + ": " + error;
     return 2;
   }
   // A file longer than any record is none; its first bytes still say what they are.
@@ -180,23 +174,41 @@ int record_command(const std::vector<std::string>& args) {
                                   : std::to_string(bytes.size());
   static const std::uint8_t kNothing = 0;  // decode_record refuses a null pointer
   const std::uint8_t* data = bytes.empty() ? &kNothing : bytes.data();
-  CalibrationRecord record;
   std::size_t offset = 0;
   const Status st = decode_record(data, bytes.size(), record, &offset);
   if (st != Status::kOk) {
-    std::fprintf(stderr, "imucal: %s: %s, at byte %zu (of %s)\n", path.c_str(), to_string(st),
-                 offset, size.c_str());
+    error = format_text("%s: %s, at byte %zu (of %s)", path.c_str(), to_string(st), offset,
+                        size.c_str());
     return 1;
   }
   if (longer) {
-    std::fprintf(stderr,
-                 "imucal: %s: a record followed by more bytes, %s in all: longer than a flash "
-                 "slot (kRecordMaxBytes), not a record's file\n",
-                 path.c_str(), size.c_str());
+    error = format_text(
+        "%s: a record followed by more bytes, %s in all: longer than a flash slot "
+        "(kRecordMaxBytes), not a record's file",
+        path.c_str(), size.c_str());
     return 1;
   }
-  const std::size_t length = static_cast<std::size_t>(bytes[6] | (bytes[7] << 8));
-  print_record(record, path, length, bytes.size(), stdout);
+  if (length != nullptr) *length = static_cast<std::size_t>(bytes[6] | (bytes[7] << 8));
+  if (file_size != nullptr) *file_size = bytes.size();
+  return 0;
+}
+
+int record_command(const std::vector<std::string>& args) {
+  if (args.size() != 1 || (args[0].size() > 1 && args[0][0] == '-')) {
+    std::fprintf(stderr,
+                 "imucal record: give one record file (or - for stdin): imucal record FILE\n");
+    return 2;
+  }
+  const std::string& path = args[0];
+  CalibrationRecord record;
+  std::string error;
+  std::size_t length = 0, file_size = 0;
+  const int code = read_record_file(path, record, error, &length, &file_size);
+  if (code != 0) {
+    std::fprintf(stderr, "imucal: %s\n", error.c_str());
+    return code;
+  }
+  print_record(record, path, length, file_size, stdout);
   return 0;
 }
 

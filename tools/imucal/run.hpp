@@ -63,7 +63,17 @@ struct Options {
   double memory_mb = 256;
   bool quiet = false;  // no progress display
   std::string json_path, header_path, svg_path, truth_path, record_path;
-  std::string kalibr_path;                     // `imucal noise --kalibr`: Kalibr's imu.yaml
+  std::string kalibr_path;  // `imucal noise --kalibr`: Kalibr's imu.yaml
+  // `imucal field`: the calibration record to start from (empty: the nominal prior), and the
+  // noise at rest of one sample on one axis, rad/s and m/s^2 (NaN: measured over the
+  // recording's initial rest).
+  std::string prior_path;
+  double gyro_noise = kNaN, accel_noise = kNaN;
+  // `imucal field`: the nominal raw gyro reading at zero rate (counts; NaN: 0), and a temperature
+  // to give the published bias at as well (NaN: none).
+  double gyro_zero = kNaN, at_temperature = kNaN;
+  // `imucal field`: the longest piece a rest is judged in, s (NaN: the library's default).
+  double rest_piece = kNaN;
   std::uint32_t device_id = 0, sensor_id = 0;  // for the record
   std::vector<std::string> command_line_keys;  // the settings given on the command line
   std::vector<std::string> from_files;         // "key=value (file:line)" read from the input

@@ -1,0 +1,594 @@
+// SPDX-License-Identifier: MIT
+// tools/imucal/field.cpp: `imucal field`: a recording of any length replayed through the field
+// calibrator (imucal/field/field_calibrator.hpp), one sample at a time as on the device, in
+// float: the rests it found, took and refused, the gyro bias it published with its sigma and
+// temperature model, and the timeline of its decisions. The input is read once; the samples
+// are kept only until the noise at rest is known (the recording's initial rest, measured by the
+// streaming calibrator as `imucal calibrate` does, or --gyro-noise and --accel-noise).
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "calibrate.hpp"
+#include "cli.hpp"
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/store/record.hpp"
+#include "outputs.hpp"
+#include "sample_store.hpp"
+
+namespace imucal::cli {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// The events the JSON lists (the rest counted), and the summary's first and last ones.
+constexpr std::size_t kListed = 100000;
+constexpr std::size_t kShownFirst = 30, kShownLast = 10;
+
+// Options of `imucal calibrate` that say nothing to the field calibrator.
+const char* const kNotField[] = {"poses",          "refine-gyro-bias", "double",
+                                 "header",         "record",           "device-id",
+                                 "sensor-id",      "output",           "svg",
+                                 "truth",          "kalibr",           "min-rest",
+                                 "mag-lsb-per-ut", "mag-field-range",  "mag-min-coverage",
+                                 "no-mag-align",   "temp-order",       "temp-min-span"};
+
+// One decision, as the timeline shows it.
+struct EventRow {
+  std::uint32_t time_s = 0;  // since the first sample, on the stream's clock
+  const char* kind = "";     // field_event_name()
+  const char* reason = "";   // field_reason_name()
+  double temperature_c = kNaN;
+  double chi2 = kNaN;
+  double bias[3] = {0, 0, 0};  // the published bias after it, at temperature_c (raw, added)
+};
+
+struct FieldRun {
+  Run input;  // what the input holds and how it was read (samples, times, diagnostics)
+  double gyro_per_rad_s = kNaN;
+  double rest_piece = kNaN;  // s: the longest piece a rest is judged in
+  // The nominal raw readings at zero (--accel-zero, --gyro-zero): taken off every sample before
+  // the field calibrator sees it (its prior is bias 0, its gravity a direction), added back to
+  // what it reports.
+  double accel_zero = 0, gyro_zero = 0;
+  double rest_bias[3] = {kNaN, kNaN, kNaN};  // the initial rest's (added, raw), when measured
+  double gyro_noise_var = kNaN, accel_noise_var = kNaN;  // raw^2, one sample, summed over axes
+  std::string noise_source;                              // "initial rest", "options", or both
+  double noise_rest_end_s = kNaN;                        // input time where the initial rest ended
+  std::string prior;                                     // "nominal" or the record's path
+  std::string prior_status;                              // start()'s status
+  FieldCounts counts{};
+  bool published = false;
+  double bias[3] = {0, 0, 0};
+  double sigma = kNaN;
+  double temperature_c = kNaN;  // the smoothed temperature the bias is at (NaN: none)
+  double at_bias[3] = {kNaN, kNaN, kNaN}, at_sigma = kNaN;  // at --at-temperature
+  // The filter's own estimate (what it would publish), at the temperature now and at
+  // --at-temperature.
+  double filter_bias[3] = {kNaN, kNaN, kNaN}, filter_sigma = kNaN;
+  double filter_at_bias[3] = {kNaN, kNaN, kNaN}, filter_at_sigma = kNaN;
+  TemperatureModel<float> model{};            // the published one
+  std::map<std::string, StreamEvent> stream;  // refused and noted samples, by status
+  std::vector<EventRow> timeline;             // the first kListed events
+  std::deque<EventRow> last;                  // the last kShownLast events
+  long events = 0;                            // all of them
+};
+
+double mean3(double a, double b, double c) { return (a + b + c) / 3.0; }
+
+struct Array3 {
+  double v[3];
+};
+Array3 array3(const Vector3<float>& x) {
+  return {{static_cast<double>(x(0)), static_cast<double>(x(1)), static_cast<double>(x(2))}};
+}
+
+// The gyro's rad/s per raw unit: the units', else the prior record's calibrated scales.
+double gyro_scale(const Options& o, const CalibrationRecord* prior) {
+  const double s = gyro_nominal_scale(o);
+  if (s > 0 || prior == nullptr || !succeeded(prior->calibration.gyro.status)) return s;
+  const auto& p = prior->calibration.gyro.params;
+  return mean3(static_cast<double>(p(kGyroScaleX)), static_cast<double>(p(kGyroScaleY)),
+               static_cast<double>(p(kGyroScaleZ)));
+}
+
+EventRow event_row(const FieldEvent<float>& e) {
+  EventRow r;
+  r.time_s = e.time_s;
+  r.kind = field_event_name(e.kind);
+  r.reason = field_reason_name(e.reason);
+  r.temperature_c = static_cast<double>(e.temperature_c);
+  r.chi2 = static_cast<double>(e.chi2);
+  for (int a = 0; a < 3; ++a) r.bias[a] = static_cast<double>(e.value(a));
+  return r;
+}
+
+void keep_event(const FieldEvent<float>& e, FieldRun& run) {
+  const EventRow r = event_row(e);
+  ++run.events;
+  if (run.timeline.size() < kListed) run.timeline.push_back(r);
+  run.last.push_back(r);
+  if (run.last.size() > kShownLast) run.last.pop_front();
+}
+
+// The field calibrator over the reader's samples. The samples are held until the noise at rest
+// is known (the streaming calibrator's initial rest, unless both noises are given), at most
+// --memory MB of them. Returns 0 (the bias was published), 1 (not), 2 (the reason in `error`).
+int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const CalibrationRecord* prior,
+              FieldRun& run, std::string& error) {
+  describe_input<float>(reader, o, run.input);
+  Run& in = run.input;
+  if (!in.has_accel || !in.has_gyro || in.mode != "stream") {
+    error = "the field calibrator needs an accelerometer and a gyroscope stream (found columns " +
+            in.columns + ")";
+    return 2;
+  }
+  const double sg = gyro_scale(o, prior);
+  if (!(sg > 0)) {
+    error =
+        "--gyro-unit counts needs --gyro-lsb-per-dps (the field calibrator's settings are in "
+        "rad/s), or a --prior record with the gyro's scale";
+    return 2;
+  }
+  run.gyro_per_rad_s = 1.0 / sg;
+  const double sa = accel_nominal_scale(o);
+  if (std::isfinite(o.accel_noise) && !(sa > 0)) {
+    error = "--accel-noise is in m/s^2: with --accel-unit counts give --accel-lsb-per-g";
+    return 2;
+  }
+  if (std::isfinite(o.gyro_noise)) run.gyro_noise_var = 3 * std::pow(o.gyro_noise / sg, 2);
+  if (std::isfinite(o.accel_noise)) run.accel_noise_var = 3 * std::pow(o.accel_noise / sa, 2);
+  const bool measure = !std::isfinite(run.gyro_noise_var) || !std::isfinite(run.accel_noise_var);
+  run.noise_source = !measure ? "options"
+                     : std::isfinite(run.gyro_noise_var) || std::isfinite(run.accel_noise_var)
+                         ? "initial rest and options"
+                         : "initial rest";
+
+  // The calibrator's settings carry the stream checks (ranges, rate) and the detector's.
+  const CalibratorSettings<float> cs = calibrator_settings<float>(o, in);
+  FieldSettings<float> fs;
+  static_cast<StreamSettings<float>&>(fs) = static_cast<const StreamSettings<float>&>(cs);
+  fs.stillness = cs.stillness;
+  fs.glitch_sigma = cs.glitch_sigma;
+  fs.gyro_per_rad_s = static_cast<float>(run.gyro_per_rad_s);
+  if (std::isfinite(o.rest_piece)) fs.max_rest_seconds = static_cast<float>(o.rest_piece);
+  run.rest_piece = static_cast<double>(fs.max_rest_seconds);
+  const double az = accel_nominal_zero(o);
+  run.accel_zero = std::isfinite(az) ? az : 0;
+  run.gyro_zero = std::isfinite(o.gyro_zero) ? o.gyro_zero : 0;
+  if (std::isfinite(o.accel_min)) {
+    fs.accel_min = static_cast<float>(o.accel_min - run.accel_zero);
+    fs.accel_max = static_cast<float>(o.accel_max - run.accel_zero);
+  }
+  if (std::isfinite(o.gyro_min)) {
+    fs.gyro_min = static_cast<float>(o.gyro_min - run.gyro_zero);
+    fs.gyro_max = static_cast<float>(o.gyro_max - run.gyro_zero);
+  }
+  // The prior about the zero reading, as the samples are.
+  Calibration<float> prior_cal;
+  TemperatureModel<float> prior_model;
+  const bool prior_model_present = prior != nullptr && (prior->parts & kRecordTemperature) != 0;
+  if (prior != nullptr) {
+    prior_cal = prior->calibration;
+    prior_model = prior->temperature;
+    const float gz = static_cast<float>(run.gyro_zero);
+    for (int a = 0; a < 3; ++a) prior_cal.gyro.params(kGyroBiasX + a) += gz;
+    prior_model.gyro.b0 += Vector3<float>::Constant(gz);
+  }
+
+  std::unique_ptr<Calibrator<float>> noise_cal;
+  if (measure) noise_cal = std::make_unique<Calibrator<float>>(cs);
+  auto field = std::make_unique<FieldCalibrator<float>>();
+  bool started = false;
+  run.prior = prior != nullptr ? o.prior_path : "nominal";
+  auto start = [&]() -> bool {
+    fs.gyro_noise = static_cast<float>(run.gyro_noise_var);
+    fs.accel_noise = static_cast<float>(run.accel_noise_var);
+    const Status st = field->start(fs, prior != nullptr ? &prior_cal : nullptr,
+                                   prior_model_present ? &prior_model : nullptr);
+    run.prior_status = to_string(st);
+    if (st == Status::kInvalidArgument) {
+      error = format_text(
+          "the field calibrator refused its settings (noise at rest: gyro %s, accelerometer %s "
+          "raw units^2 summed over the axes; %g raw units per rad/s)",
+          fmt("%.4g", run.gyro_noise_var).c_str(), fmt("%.4g", run.accel_noise_var).c_str(),
+          run.gyro_per_rad_s);
+      return false;
+    }
+    started = true;
+    return true;
+  };
+  if (!measure && !start()) return 2;
+
+  auto feed = [&](const Sample& s) {
+    Sample x = s;
+    for (int a = 0; a < 3; ++a) {
+      x.acc[a] -= run.accel_zero;
+      x.gyro[a] -= run.gyro_zero;
+    }
+    const Status st = field->add(imu_sample<float>(x));
+    if (st != Status::kOk) {
+      StreamEvent& e = run.stream[to_string(st)];
+      if (e.count++ == 0) e.first_t = s.t;
+      e.status = to_string(st);
+    }
+    if (std::isfinite(s.mag[0]))
+      field->add_mag(Vector3<float>(static_cast<float>(s.mag[0]), static_cast<float>(s.mag[1]),
+                                    static_cast<float>(s.mag[2])));
+    FieldEvent<float> e;
+    while (field->take_event(e)) {
+      e.value -= Vector3<float>::Constant(static_cast<float>(run.gyro_zero));
+      keep_event(e, run);
+    }
+  };
+
+  const std::size_t most = static_cast<std::size_t>(o.memory_mb * 1048576.0 / sizeof(Sample));
+  std::vector<Sample> held;  // the samples before the noise is known
+  DeviceClock clock;
+  Record r;
+  long n = 0;
+  while (reader.next(r, diag)) {
+    const Sample s = make_sample(r, clock, in.has_gyro);
+    if (n == 0) in.t_first = s.t;
+    ++n;
+    in.t_last = s.t;
+    if (started) {
+      feed(s);
+      continue;
+    }
+    held.push_back(s);
+    noise_cal->add(imu_sample<float>(s));
+    if (noise_cal->progress().phase != Phase::kInitialRest) {
+      if (!std::isfinite(run.gyro_noise_var))
+        run.gyro_noise_var = static_cast<double>(noise_cal->gyro_noise_variance().sum());
+      if (!std::isfinite(run.accel_noise_var))
+        run.accel_noise_var = static_cast<double>(noise_cal->accel_noise_variance().sum());
+      run.noise_rest_end_s = s.t;
+      for (int a = 0; a < 3; ++a)
+        run.rest_bias[a] = static_cast<double>(noise_cal->gyro_bias0()(a));
+      noise_cal.reset();
+      if (!start()) return 2;
+      for (const Sample& x : held) feed(x);
+      held = {};
+    } else if (held.size() > most) {
+      error = format_text(
+          "no still period of --initial-rest %g s in the first %zu samples (--memory %g MB) "
+          "to measure the noise at rest from: give --gyro-noise and --accel-noise",
+          o.initial_rest, held.size(), o.memory_mb);
+      return 2;
+    }
+  }
+  in.samples = n;
+  in.lines_skipped = reader.lines_skipped();
+  if (n == 0) {
+    diag.add({o.files[0], 0, 0, "no samples"});
+    return 2;
+  }
+  if (n > 1 && in.time_source != "none")
+    in.rate_hz = static_cast<double>(n - 1) / (in.t_last - in.t_first);
+  if (!started) {
+    error = format_text(
+        "no still period of --initial-rest %g s followed by motion in the recording to measure "
+        "the noise at rest from: give a shorter --initial-rest, or --gyro-noise and "
+        "--accel-noise",
+        o.initial_rest);
+    return 2;
+  }
+  for (const auto& kv : run.stream) in.events.push_back(kv.second);
+  run.counts = field->counts();
+  Vector3<float> b;
+  float sigma = 0;
+  run.published = field->gyro_bias(b, &sigma);
+  for (int a = 0; a < 3; ++a) run.bias[a] = static_cast<double>(b(a)) - run.gyro_zero;
+  run.sigma = static_cast<double>(sigma);
+  run.temperature_c = static_cast<double>(field->temperature());
+  if (std::isfinite(o.at_temperature)) {
+    field->gyro_bias(static_cast<float>(o.at_temperature), b, &sigma);
+    for (int a = 0; a < 3; ++a) run.at_bias[a] = static_cast<double>(b(a)) - run.gyro_zero;
+    run.at_sigma = static_cast<double>(sigma);
+  }
+  const BiasFilter<float>& filter = field->filter();
+  const float margin = field->settings().temperature_margin_c;
+  auto filter_at = [&](float t, double* out, double& sd) {
+    const Vector3<float> v = filter.at(t, margin);
+    for (int a = 0; a < 3; ++a) out[a] = static_cast<double>(v(a)) - run.gyro_zero;
+    sd = std::sqrt(static_cast<double>(filter.variance(filter.clamped_offset(t, margin))));
+  };
+  filter_at(field->temperature(), run.filter_bias, run.filter_sigma);
+  if (std::isfinite(o.at_temperature))
+    filter_at(static_cast<float>(o.at_temperature), run.filter_at_bias, run.filter_at_sigma);
+  field->published_model(run.model);
+  run.model.gyro.b0 -= Vector3<float>::Constant(static_cast<float>(run.gyro_zero));
+  return run.published ? 0 : 1;
+}
+
+std::string vec_text(const double* v, const char* format) {
+  return "[" + fmt(format, v[0]) + ", " + fmt(format, v[1]) + ", " + fmt(format, v[2]) + "]";
+}
+
+void print_event(std::FILE* out, const EventRow& e, double to_dps) {
+  const double dps[3] = {e.bias[0] * to_dps, e.bias[1] * to_dps, e.bias[2] * to_dps};
+  std::fprintf(out, "  %9lu  %-15s %-12s %8s %10s  %s\n", static_cast<unsigned long>(e.time_s),
+               e.kind, e.reason, fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
+               vec_text(dps, "% .5f").c_str());
+}
+
+void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) {
+  const Run& in = run.input;
+  const char* gu = gyro_unit_name(o.gyro_unit);
+  const double to_dps = kDeg / run.gyro_per_rad_s;  // deg/s per raw unit
+  const double span = in.t_last - in.t_first;
+  std::fprintf(out, "imucal field %s: %ld samples over %s s (%s h), %s Hz, %s\n",
+               o.files.size() == 2 ? (o.files[0] + " " + o.files[1]).c_str() : o.files[0].c_str(),
+               in.samples, fmt("%.1f", span).c_str(), fmt("%.3f", span / 3600).c_str(),
+               fmt("%.2f", in.rate_hz).c_str(), in.format.c_str());
+  if (in.lines_skipped > 0) std::fprintf(out, "  %ld lines skipped\n", in.lines_skipped);
+  for (const StreamEvent& e : in.events)
+    std::fprintf(out, "  stream: %s: %ld samples (first at %s s)\n", e.status.c_str(), e.count,
+                 fmt("%.3f", e.first_t).c_str());
+  std::fprintf(out, "gyro     %s, %s raw units per rad/s, zero reading %g\n", gu,
+               fmt("%.6g", run.gyro_per_rad_s).c_str(), run.gyro_zero);
+  std::fprintf(
+      out, "noise    from the %s%s: gyro %s %s, accelerometer %s %s (one sample, one axis)\n",
+      run.noise_source.c_str(),
+      std::isfinite(run.noise_rest_end_s)
+          ? (" (ended at " + fmt("%.2f", run.noise_rest_end_s) + " s)").c_str()
+          : "",
+      fmt("%.4g", std::sqrt(run.gyro_noise_var / 3)).c_str(), gu,
+      fmt("%.4g", std::sqrt(run.accel_noise_var / 3)).c_str(), accel_unit_name(o.accel_unit));
+  std::fprintf(out, "prior    %s (%s); rests judged in pieces of at most %g s\n", run.prior.c_str(),
+               run.prior_status.c_str(), run.rest_piece);
+  const FieldCounts& c = run.counts;
+  std::fprintf(out,
+               "rests    %u found: %u taken, %u refused as turning, %u held (outside the gate), "
+               "%u unconfirmed\n",
+               c.rests, c.taken, c.turning, c.held, c.unconfirmed);
+  std::fprintf(out, "changes  %u detected; %u updates published\n", c.changes, c.updates);
+  if (run.published) {
+    const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
+    std::fprintf(out, "\ngyro bias published (added to the raw reading), %s:\n",
+                 std::isfinite(run.temperature_c)
+                     ? ("at " + fmt("%.2f", run.temperature_c) + " deg C").c_str()
+                     : "no temperature in the input");
+    std::fprintf(out, "  b  %s +- %s %s\n", vec_text(run.bias, "% .6g").c_str(),
+                 fmt("%.3g", run.sigma).c_str(), gu);
+    std::fprintf(out, "     %s +- %s deg/s\n", vec_text(dps, "% .5f").c_str(),
+                 fmt("%.3g", run.sigma * to_dps).c_str());
+    if (std::isfinite(o.at_temperature))
+      std::fprintf(out, "  at %s deg C: %s +- %s %s\n", fmt("%.2f", o.at_temperature).c_str(),
+                   vec_text(run.at_bias, "% .6g").c_str(), fmt("%.3g", run.at_sigma).c_str(), gu);
+  } else {
+    std::fprintf(out,
+                 "\ngyro bias NOT published: the filter publishes from a piece judged while its "
+                 "rest goes on (a rest of three pieces or more, --rest-piece), once %d rests "
+                 "after motion were taken\n",
+                 FieldSettings<float>().first_rests);
+    // A rest reading far from the zero given: the prior's 3 deg/s cannot take it.
+    double off = 0;
+    for (int a = 0; a < 3; ++a) off = std::fmax(off, std::fabs(run.rest_bias[a] + run.gyro_zero));
+    if (std::isfinite(off) &&
+        off * to_dps > 3 * kDeg * static_cast<double>(FieldSettings<float>().bias_sigma))
+      std::fprintf(
+          out,
+          "  the gyro read up to %s deg/s at the initial rest, beyond 3 sigma of the "
+          "prior's %s deg/s: give its zero reading (--gyro-zero 32768 for unsigned 16-bit "
+          "counts) or a --prior record\n",
+          fmt("%.1f", off * to_dps).c_str(),
+          fmt("%.0f", kDeg * static_cast<double>(FieldSettings<float>().bias_sigma)).c_str());
+  }
+  std::fprintf(out, "the filter's estimate (%s): %s +- %s %s\n",
+               run.published ? "published when it differs significantly" : "not published",
+               vec_text(run.filter_bias, "% .6g").c_str(), fmt("%.3g", run.filter_sigma).c_str(),
+               gu);
+  if (std::isfinite(o.at_temperature))
+    std::fprintf(out, "  at %s deg C: %s +- %s %s\n", fmt("%.2f", o.at_temperature).c_str(),
+                 vec_text(run.filter_at_bias, "% .6g").c_str(),
+                 fmt("%.3g", run.filter_at_sigma).c_str(), gu);
+  const TemperatureModel<float>& m = run.model;
+  const TemperatureBias<float>& g = m.gyro;
+  std::fprintf(out, "temperature model of the published bias  %s\n", kTemperatureModel);
+  std::fprintf(out, "  T0 %s deg C, valid %s .. %s deg C (%s)\n",
+               fmt("%.2f", static_cast<double>(m.reference_c)).c_str(),
+               fmt("%.2f", static_cast<double>(m.min_c)).c_str(),
+               fmt("%.2f", static_cast<double>(m.max_c)).c_str(), to_string(g.status));
+  auto row = [&](const char* name, const Vector3<float>& v, const Vector3<float>& sd,
+                 const char* format, const char* unit) {
+    const Array3 x = array3(v), y = array3(sd);
+    std::fprintf(out, "  %s %s  %s%s\n", name, vec_pm(x.v, y.v, format).c_str(), gu, unit);
+  };
+  row("b0", g.b0, g.b0_sigma, "% .6g", "");
+  row("b1", g.b1, g.b1_sigma, "% .4g", "/degC");
+  row("b2", g.b2, g.b2_sigma, "% .4g", "/degC^2");
+
+  std::fprintf(out, "\ntimeline (%s; t in s since the first sample; bias after it in deg/s)\n",
+               plural(run.events, "event", "events").c_str());
+  if (run.events == 0) return;
+  std::fprintf(out, "  %9s  %-15s %-12s %8s %10s  %s\n", "t", "event", "reason", "temp", "chi2",
+               "published bias");
+  const std::size_t all = static_cast<std::size_t>(run.events);
+  if (all <= kShownFirst + kShownLast) {
+    for (const EventRow& e : run.timeline) print_event(out, e, to_dps);
+    return;
+  }
+  for (std::size_t i = 0; i < kShownFirst; ++i) print_event(out, run.timeline[i], to_dps);
+  std::fprintf(out, "  ... %zu events not shown (--json lists %s) ...\n",
+               all - kShownFirst - kShownLast,
+               all <= kListed ? "every one" : format_text("the first %zu", kListed).c_str());
+  for (const EventRow& e : run.last) print_event(out, e, to_dps);
+}
+
+Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+Json vec3(const double* v) { return Json::array({number(v[0]), number(v[1]), number(v[2])}); }
+Json vec3(const Vector3<float>& v) { return vec3(array3(v).v); }
+
+std::string field_json(const FieldRun& run, const Options& o) {
+  const Run& in = run.input;
+  const double to_dps = kDeg / run.gyro_per_rad_s;
+  Json j;
+  j["imucal"] = "0.1.0";
+  j["command"] = "field";
+  Json input;
+  input["files"] = o.files;
+  input["format"] = in.format;
+  input["columns"] = in.columns;
+  input["time"] = in.time_source;
+  input["samples"] = in.samples;
+  input["t_first_s"] = in.t_first;
+  input["t_last_s"] = in.t_last;
+  input["hours"] = (in.t_last - in.t_first) / 3600;
+  input["rate_hz"] = number(in.rate_hz);
+  input["lines_skipped"] = in.lines_skipped;
+  input["diagnostics"] = in.diagnostics;
+  input["diagnostic_count"] = in.diagnostic_count;
+  Json events = Json::array();
+  for (const StreamEvent& e : in.events)
+    events.push_back({{"status", e.status}, {"samples", e.count}, {"first_t_s", e.first_t}});
+  input["stream_events"] = events;
+  j["input"] = input;
+  Json config;
+  config["time_unit"] = time_unit_name(o.time_unit);
+  config["accel_unit"] = accel_unit_name(o.accel_unit);
+  config["gyro_unit"] = gyro_unit_name(o.gyro_unit);
+  config["gyro_per_rad_s"] = number(run.gyro_per_rad_s);
+  config["accel_zero"] = run.accel_zero;
+  config["gyro_zero"] = run.gyro_zero;
+  config["initial_rest_s"] = o.initial_rest;
+  config["rest_piece_s"] = run.rest_piece;
+  config["nominal_rate_hz"] = o.nominal_rate_hz > 0 ? Json(o.nominal_rate_hz) : Json(nullptr);
+  config["prior"] = run.prior;
+  config["prior_status"] = run.prior_status;
+  config["from_files"] = o.from_files;
+  j["configuration"] = config;
+  j["noise"] = {{"source", run.noise_source},
+                {"initial_rest_end_s", number(run.noise_rest_end_s)},
+                {"gyro_variance_raw", number(run.gyro_noise_var)},
+                {"accel_variance_raw", number(run.accel_noise_var)}};
+  const FieldCounts& c = run.counts;
+  j["counts"] = {{"rests", c.rests},
+                 {"taken", c.taken},
+                 {"turning", c.turning},
+                 {"held", c.held},
+                 {"unconfirmed", c.unconfirmed},
+                 {"changes", c.changes},
+                 {"updates", c.updates},
+                 {"events_dropped", c.events_dropped}};
+  Json bias;
+  bias["published"] = run.published;
+  bias["unit"] = gyro_unit_name(o.gyro_unit);
+  bias["convention"] = "added to the raw reading";
+  bias["value"] = vec3(run.bias);
+  bias["sigma"] = number(run.sigma);
+  const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
+  bias["value_dps"] = vec3(dps);
+  bias["sigma_dps"] = number(run.sigma * to_dps);
+  bias["temperature_c"] = number(run.temperature_c);
+  j["gyro_bias"] = bias;
+  j["filter_bias"] = {{"value", vec3(run.filter_bias)}, {"sigma", number(run.filter_sigma)}};
+  if (std::isfinite(o.at_temperature)) {
+    j["gyro_bias_at"] = {{"temperature_c", o.at_temperature},
+                         {"value", vec3(run.at_bias)},
+                         {"sigma", number(run.at_sigma)}};
+    j["filter_bias_at"] = {{"temperature_c", o.at_temperature},
+                           {"value", vec3(run.filter_at_bias)},
+                           {"sigma", number(run.filter_at_sigma)}};
+  }
+  const TemperatureModel<float>& m = run.model;
+  j["temperature_model"] = {{"model", kTemperatureModel},
+                            {"status", to_string(m.gyro.status)},
+                            {"order", m.order},
+                            {"reference_c", number(static_cast<double>(m.reference_c))},
+                            {"min_c", number(static_cast<double>(m.min_c))},
+                            {"max_c", number(static_cast<double>(m.max_c))},
+                            {"b0", vec3(m.gyro.b0)},
+                            {"b1", vec3(m.gyro.b1)},
+                            {"b2", vec3(m.gyro.b2)},
+                            {"b0_sigma", vec3(m.gyro.b0_sigma)},
+                            {"b1_sigma", vec3(m.gyro.b1_sigma)},
+                            {"b2_sigma", vec3(m.gyro.b2_sigma)}};
+  Json timeline = Json::array();
+  for (const EventRow& e : run.timeline)
+    timeline.push_back({{"time_s", e.time_s},
+                        {"kind", e.kind},
+                        {"reason", e.reason},
+                        {"temperature_c", number(e.temperature_c)},
+                        {"chi2", number(e.chi2)},
+                        {"bias", vec3(e.bias)}});
+  j["timeline"] = timeline;
+  j["events"] = run.events;
+  j["events_not_listed"] = run.events - static_cast<long>(run.timeline.size());
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+int field_command(const std::vector<std::string>& args) {
+  Options o;
+  std::string error;
+  if (!parse_calibrate_options(args, o, error)) {
+    std::fprintf(stderr, "imucal field: %s\n", error.c_str());
+    return 2;
+  }
+  for (const std::string& k : o.command_line_keys) {
+    for (const char* no : kNotField) {
+      if (k == no) {
+        std::fprintf(stderr, "imucal field: --%s does not apply to the field calibrator\n",
+                     k.c_str());
+        return 2;
+      }
+    }
+  }
+  if (o.files.empty()) {
+    std::fprintf(stderr, "imucal field: no input (a CSV file, - for stdin, or two imu_tk files)\n");
+    return 2;
+  }
+  std::vector<std::string> inputs = o.files;
+  inputs.push_back(o.prior_path);
+  if (!outputs_apart_from_inputs(inputs, {{"--json", o.json_path}})) return 2;
+  std::unique_ptr<CalibrationRecord> prior;
+  if (!o.prior_path.empty()) {
+    prior = std::make_unique<CalibrationRecord>();
+    const int code = read_record_file(o.prior_path, *prior, error);
+    if (code != 0) {
+      std::fprintf(stderr, "imucal field: --prior: %s\n", error.c_str());
+      return 2;
+    }
+  }
+  Diagnostics diag;
+  SampleReader reader;
+  reader.set_columns(o.columns);
+  if (!reader.open(o.files, o.format, diag)) {
+    print_diagnostics(diag);
+    return 2;
+  }
+  if (!settle_options(reader, o, error)) {
+    std::fprintf(stderr, "imucal: %s\n", error.c_str());
+    return 2;
+  }
+  FieldRun run;
+  const int code = run_field(o, reader, diag, prior.get(), run, error);
+  run.input.diagnostic_count = static_cast<long>(diag.count());
+  for (const Diagnostic& d : diag.kept()) run.input.diagnostics.push_back(d.text());
+  print_diagnostics(diag);
+  if (code == 2) {
+    if (error.empty()) return 2;  // the diagnostics said why
+    std::fprintf(stderr, "imucal field: %s\n", error.c_str());
+    return 2;
+  }
+  if (reader.failed()) {
+    std::fprintf(stderr, "imucal: the input could not be read to its end: nothing written\n");
+    return 2;
+  }
+  std::FILE* summary = o.json_path == "-" ? stderr : stdout;
+  print_field_summary(run, o, summary);
+  if (!o.json_path.empty() && !write_text_file(o.json_path, field_json(run, o))) return 2;
+  return code;
+}
+
+}  // namespace imucal::cli
