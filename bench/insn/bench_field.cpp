@@ -117,13 +117,13 @@ std::uint32_t decisions(const FieldCounts& c) {
 
 // Names the judged call by its decisions (the counts that changed).
 const char* judged_name(const FieldCounts& a, const FieldCounts& b) {
-  if (b.updates != a.updates) return "field add_raw(): a rest judged: published, per call";
-  if (b.changes != a.changes) return "field add_raw(): a rest judged: a change, per call";
-  if (b.turning != a.turning) return "field add_raw(): a rest judged: turning, per call";
+  if (b.updates != a.updates) return "field: add_raw(), a rest judged: published, per call";
+  if (b.changes != a.changes) return "field: add_raw(), a rest judged: a change, per call";
+  if (b.turning != a.turning) return "field: add_raw(), a rest judged: turning, per call";
   if (b.held != a.held || b.unconfirmed != a.unconfirmed)
-    return "field add_raw(): a rest judged: held or unconfirmed, per call";
-  if (b.taken != a.taken) return "field add_raw(): a rest judged: taken, per call";
-  return "field add_raw(): a rest piece handed out (judged later), per call";
+    return "field: add_raw(), a rest judged: held or unconfirmed, per call";
+  if (b.taken != a.taken) return "field: add_raw(), a rest judged: taken, per call";
+  return "field: add_raw(), a rest piece handed out (judged later), per call";
 }
 }  // namespace
 
@@ -155,8 +155,8 @@ int main() {
     if (decisions(after) != decisions(before)) {
       bench_announce(judged_name(before, after));
     } else {
-      bench_announce(t.still ? "field add_raw(): still, per frame"
-                             : "field add_raw(): moving, per frame");
+      bench_announce(t.still ? "field: add_raw(), still, per frame"
+                             : "field: add_raw(), moving, per frame");
     }
     // The magnetometer's reading that arrived with the frame (50 Hz), as a device feeds it.
     if (s.mag_new) {
@@ -168,13 +168,13 @@ int main() {
       imucal_bench_end();
       bench::stack_measure();
       ++mags;
-      bench_announce(resting ? "field add_mag(): in a rest, per call (50 Hz)"
-                             : "field add_mag(): no rest open, per call (50 Hz)");
+      bench_announce(resting ? "field: add_mag(), in a rest, per call (50 Hz)"
+                             : "field: add_mag(), no rest open, per call (50 Hz)");
     }
     FieldEvent<float> e;
     while (calibrator.take_event(e)) ++events;
   }
-  report_stack("FieldCalibrator::add_raw(), add_mag()");
+  report_stack("field add_raw(), add_mag()");
 
   const FieldCounts& c = calibrator.counts();
   Vector3<float> bias;
