@@ -12,6 +12,8 @@
 //   - a rest judged: the calls in which the rest monitor handed out a piece of a rest or the
 //     calibrator judged one (its counts changed), named by what it decided (taken, refused as
 //     turning, held, published): the largest calls.
+// The same frames go to a second calibrator with the temperature once a second only (regions
+// "field, temperature at 1 Hz: ..."; without the magnetometer): the per-frame temperature's share.
 // The magnetometer's reading that arrives with every second frame (50 Hz) goes to add_mag(), each
 // call its own region, named by whether a rest was open (the field is summed) or not. The life is
 // simulated in double (slow on the cores without an FPU) between the regions, its frame written to
@@ -34,6 +36,9 @@ using namespace imucal;
 
 namespace {
 FieldCalibrator<float> calibrator;  // global: no guard, no stack
+// The same frames with the temperature once a second only (the life reads it with every frame):
+// what the per-frame temperature costs (float smoothing, soft-float on the cores without an FPU).
+FieldCalibrator<float> calibrator_1hz;
 // The frame, its temperature and the field are written here before the begin marker (its memory
 // clobber orders the stores), so that converting the simulator's doubles is not counted.
 RawFrame g_frame;
@@ -131,6 +136,8 @@ int main() {
   const sim::LifePlan plan = bench_plan();
   sim::LifeSimulator life(plan);
   const Status started = calibrator.start(settings_for(life.sheet()));
+  calibrator_1hz.start(settings_for(life.sheet()));
+  double next_temperature_s = 0.0;
   sim::LifeSample s;
   sim::LifeTruth t;
   std::uint32_t frames = 0, mags = 0, refused = 0, events = 0;
@@ -173,6 +180,24 @@ int main() {
     }
     FieldEvent<float> e;
     while (calibrator.take_event(e)) ++events;
+    // The 1 Hz temperature variant, same frame, field not given (add_raw() only).
+    if (s.temperature_new && s.t_s >= next_temperature_s) {
+      next_temperature_s += 1.0;
+    } else {
+      g_temperature = std::numeric_limits<float>::quiet_NaN();
+    }
+    const std::uint32_t before_1hz = decisions(calibrator_1hz.counts());
+    bench::stack_paint();
+    imucal_bench_begin();
+    calibrator_1hz.add_raw(g_frame, g_temperature);
+    imucal_bench_end();
+    bench::stack_measure();
+    bench_announce(decisions(calibrator_1hz.counts()) != before_1hz
+                       ? "field, temperature at 1 Hz: add_raw(), a rest handed out or judged"
+                   : t.still ? "field, temperature at 1 Hz: add_raw(), still, per frame"
+                             : "field, temperature at 1 Hz: add_raw(), moving, per frame");
+    while (calibrator_1hz.take_event(e)) {
+    }
   }
   report_stack("field add_raw(), add_mag()");
 
@@ -189,5 +214,11 @@ int main() {
       static_cast<unsigned>(c.held), static_cast<unsigned>(c.unconfirmed),
       static_cast<unsigned>(c.changes), static_cast<unsigned>(c.updates), published ? 1 : 0,
       static_cast<unsigned>(sizeof(calibrator)));
+  std::printf(
+      "RESULT field, temperature at 1 Hz (no magnetometer): %u rests, %u taken, %u "
+      "updates\n",
+      static_cast<unsigned>(calibrator_1hz.counts().rests),
+      static_cast<unsigned>(calibrator_1hz.counts().taken),
+      static_cast<unsigned>(calibrator_1hz.counts().updates));
   return started == Status::kOk && refused == 0 && published ? 0 : 1;
 }
