@@ -5,6 +5,8 @@
 #   PRESET: m4f, m7, m33, m3, m0plus or rv32 (the machine QEMU emulates); BUILD_DIR: where the
 #   programs were built (default build/PRESET; bench/insn_cores.sh builds them for the other
 #   cores).
+# IMUCAL_INSN_PROGRAMS="bench_field_insn ...": run only these programs (bench/insn_cores.sh sets
+# it to what it built); otherwise every program that was built.
 # Counts are exact guest instructions from the QEMU TCG plugin in bench/qemu_plugin (QEMU is
 # not cycle-accurate: instructions, not cycles). Regions of the same name are summed: the table
 # gives their number, the mean and the largest. Each region includes 2 instructions of marker
@@ -27,18 +29,26 @@ case $preset in
 esac
 echo "| region ($preset, $machine, -O2) | calls | mean | largest | total |"
 echo "| --- | ---: | ---: | ---: | ---: |"
-programs=(bench_accel_insn)
-if [ -f "$build/bench/bench_apply_insn" ]; then
-  programs+=(bench_apply_insn)
-fi
-if [ -f "$build/bench/bench_mag_insn" ]; then
-  programs+=(bench_mag_insn)
-fi
-# The streaming benchmark reads the xsens recording beside the clone (CI always has it).
-if [ -f "$here/../../shared/data/xsens/xsens_acc.mat" ]; then
-  programs+=(bench_stream_insn)
+if [ -n "${IMUCAL_INSN_PROGRAMS:-}" ]; then
+  read -r -a programs <<<"$IMUCAL_INSN_PROGRAMS"
 else
-  echo "(bench_stream_insn skipped: ../shared/data/xsens not found)" >&2
+  programs=(bench_accel_insn)
+  if [ -f "$build/bench/bench_apply_insn" ]; then
+    programs+=(bench_apply_insn)
+  fi
+  if [ -f "$build/bench/bench_mag_insn" ]; then
+    programs+=(bench_mag_insn)
+  fi
+  # The field calibrator on a simulated life (no data needed).
+  if [ -f "$build/bench/bench_field_insn" ]; then
+    programs+=(bench_field_insn)
+  fi
+  # The streaming benchmark reads the xsens recording beside the clone (CI always has it).
+  if [ -f "$here/../../shared/data/xsens/xsens_acc.mat" ]; then
+    programs+=(bench_stream_insn)
+  else
+    echo "(bench_stream_insn skipped: ../shared/data/xsens not found)" >&2
+  fi
 fi
 stack=""
 for program in "${programs[@]}"; do

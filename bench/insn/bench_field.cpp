@@ -1,0 +1,224 @@
+// SPDX-License-Identifier: MIT
+// bench/insn/bench_field.cpp: instruction counts of the field calibrator (FieldCalibrator<float>,
+// include/imucal/field/) on the cross targets (bench/run_insn_bench.sh, QEMU with the counting
+// plugin), float as on the device. A simulated device's life (sim/life_sim.hpp, as
+// host_tests/test_field.cpp runs it; here a fixed plan of about 8 minutes at 100 Hz: rests on a
+// desk in several attitudes, picked up and used in the hand, a brisk gesture, a steady slow turn
+// about the vertical, tremor in the hand, a knock that steps the gyro bias, a passing magnet, the
+// magnetometer at 50 Hz, a temperature with every frame) is fed one 16-bit frame at a time, each
+// add_raw() its own region, named by what the call did:
+//   - still: the body truly still (the life's rests), nothing handed out or judged in the call;
+//   - moving: everything else (moves, hand use, the turn, tremor, the knock), the same;
+//   - a rest judged: the calls in which the rest monitor handed out a piece of a rest or the
+//     calibrator judged one (its counts changed), named by what it decided (taken, refused as
+//     turning, held, published): the largest calls.
+// The same frames go to a second calibrator with the temperature once a second only (regions
+// "field, temperature at 1 Hz: ..."; without the magnetometer): the per-frame temperature's share.
+// The magnetometer's reading that arrives with every second frame (50 Hz) goes to add_mag(), each
+// call its own region, named by whether a rest was open (the field is summed) or not. The life is
+// simulated in double (slow on the cores without an FPU) between the regions, its frame written to
+// a global before the begin marker: none of it is counted. The script sums regions of the same
+// name. Not a test: it reports, it does not judge. It also reports the deepest stack use of
+// add_raw() and add_mag() (one "STACK" line: bytes below main's stack pointer, stack_paint.hpp;
+// add_raw()'s, add_mag() is a leaf), painted before and measured after each call, outside the
+// counted regions, and sizeof(FieldCalibrator<float>).
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/sim/life_sim.hpp"
+#include "markers.hpp"
+#include "stack_paint.hpp"
+
+using namespace imucal;
+
+namespace {
+FieldCalibrator<float> calibrator;  // global: no guard, no stack
+// The same frames with the temperature once a second only (the life reads it with every frame):
+// what the per-frame temperature costs (float smoothing, soft-float on the cores without an FPU).
+FieldCalibrator<float> calibrator_1hz;
+// The frame, its temperature and the field are written here before the begin marker (its memory
+// clobber orders the stores), so that converting the simulator's doubles is not counted.
+RawFrame g_frame;
+float g_temperature = 0.0f;
+Vector3<float> g_mag = Vector3<float>::Zero();
+
+constexpr std::uintptr_t kStackWindow = 4096;  // repainted per call (stack_paint.hpp)
+
+// The life: a desk's rests in four attitudes with hand use, a gesture, a slow steady turn and
+// tremor between them; add_events() adds a passing magnet, a knock (a gyro bias step of 0.2 to
+// 0.5 deg/s inside a rest) and a magnetisation change.
+sim::LifePlan bench_plan() {
+  using namespace sim::life_detail;
+  sim::LifeOptions o;
+  sim::Random rng(0xF1E1Dull);
+  sim::LifePlan plan = begin_plan("bench_field", 7, o, rng);
+  Matrix3<double> stations[4];
+  stations[0] = lying(1.0 * kDeg, rng);
+  stations[1] = lying(2.0 * kDeg, rng);
+  stations[2] = tilted(rng.uniform(60.0, 75.0) * kDeg, rng);
+  stations[3] = tilted(kPi - 1.0 * kDeg, rng);
+  plan.start = Eigen::Quaterniond(stations[0]);
+  PlanBuilder b(plan, 480.0, rng);
+  b.rest(40.0);
+  b.move_by({0.7, 1.6}, {1.5, 2.5});
+  b.simple(sim::PhaseKind::kHand, 20.0);
+  b.move_to(stations[1], {1.5, 3.0});
+  b.rest(60.0);
+  b.move_by({0.4, 1.0}, {1.0, 2.0});  // a touch: picked up and put back
+  b.move_to(stations[1], {1.0, 2.0});
+  b.rest(30.0);
+  b.move_by({0.7, 1.6}, {1.5, 2.5});
+  b.simple(sim::PhaseKind::kHand, 30.0);
+  b.move_to(stations[2], {1.5, 3.0});
+  b.rest(90.0);
+  b.move_by({0.7, 1.6}, {1.5, 2.5});
+  b.gesture(10.0);
+  b.move_to(stations[3], {1.5, 3.0});
+  b.rest(40.0);
+  b.turn({3.0, 10.0}, 30.0);  // a turntable's: the detector may take it for a rest
+  b.rest(30.0);
+  b.move_by({0.7, 1.6}, {1.5, 2.5});
+  b.simple(sim::PhaseKind::kHandRest, 20.0);
+  b.move_to(stations[0], {1.5, 3.0});
+  b.rest(480.0);  // to the end of the plan
+  add_events(plan, o, 0.05, rng);
+  return plan;
+}
+
+// As host_tests/test_field.cpp: the noise at rest and the gyro's scale from the datasheet.
+FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
+  FieldSettings<float> s;
+  const double bw = std::sqrt(0.5 * sheet.rate_hz);
+  const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
+  const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
+  s.gyro_noise = static_cast<float>(3.0 * g * g);
+  s.accel_noise = static_cast<float>(3.0 * a * a);
+  s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
+  s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
+  return s;
+}
+
+// Everything a rest's judging changes (on_rest() and judge() count each piece somewhere).
+std::uint32_t decisions(const FieldCounts& c) {
+  return c.rests + c.taken + c.turning + c.held + c.unconfirmed + c.changes + c.updates;
+}
+
+[[gnu::noinline]] void report_stack(const char* name) {
+  const bench::StackSeries s = bench::stack_series_result();
+  if (s.measures == 0) {
+    std::printf("STACK %s: not measured (no paint routine for this core)\n", name);
+  } else if (s.sp_moved) {
+    std::printf("STACK %s: not measured (main's SP moved between the calls)\n", name);
+  } else if (s.window_overflow) {
+    std::printf("STACK %s: not measured (something went deeper than the %u B window)\n", name,
+                static_cast<unsigned>(s.window));
+  } else {
+    std::printf("STACK %s: %u B\n", name, static_cast<unsigned>(s.max_bytes));
+  }
+}
+
+// Names the judged call by its decisions (the counts that changed).
+const char* judged_name(const FieldCounts& a, const FieldCounts& b) {
+  if (b.updates != a.updates) return "field: add_raw(), a rest judged: published, per call";
+  if (b.changes != a.changes) return "field: add_raw(), a rest judged: a change, per call";
+  if (b.turning != a.turning) return "field: add_raw(), a rest judged: turning, per call";
+  if (b.held != a.held || b.unconfirmed != a.unconfirmed)
+    return "field: add_raw(), a rest judged: held or unconfirmed, per call";
+  if (b.taken != a.taken) return "field: add_raw(), a rest judged: taken, per call";
+  return "field: add_raw(), a rest piece handed out (judged later), per call";
+}
+}  // namespace
+
+int main() {
+  const sim::LifePlan plan = bench_plan();
+  sim::LifeSimulator life(plan);
+  const Status started = calibrator.start(settings_for(life.sheet()));
+  calibrator_1hz.start(settings_for(life.sheet()));
+  double next_temperature_s = 0.0;
+  sim::LifeSample s;
+  sim::LifeTruth t;
+  std::uint32_t frames = 0, mags = 0, refused = 0, events = 0;
+  bench::stack_series_start(kStackWindow);
+  while (life.next(s, t)) {
+    g_frame.t_us = s.t_us;
+    for (std::size_t i = 0; i < 3; ++i) {
+      g_frame.acc[i] = s.acc_counts[i];
+      g_frame.gyro[i] = s.gyro_counts[i];
+    }
+    g_temperature = s.temperature_new ? s.imu.temperature : std::numeric_limits<float>::quiet_NaN();
+    const FieldCounts before = calibrator.counts();
+    bench::stack_paint();
+    imucal_bench_begin();
+    const Status st = calibrator.add_raw(g_frame, g_temperature);
+    imucal_bench_end();
+    bench::stack_measure();
+    ++frames;
+    if (!(st == Status::kOk || sample_taken(st))) ++refused;
+    // Named after the fact (the region is already counted; the plugin pairs them in order).
+    const FieldCounts& after = calibrator.counts();
+    if (decisions(after) != decisions(before)) {
+      bench_announce(judged_name(before, after));
+    } else {
+      bench_announce(t.still ? "field: add_raw(), still, per frame"
+                             : "field: add_raw(), moving, per frame");
+    }
+    // The magnetometer's reading that arrived with the frame (50 Hz), as a device feeds it.
+    if (s.mag_new) {
+      g_mag = s.mag;
+      const bool resting = calibrator.monitor().resting();
+      bench::stack_paint();
+      imucal_bench_begin();
+      calibrator.add_mag(g_mag);
+      imucal_bench_end();
+      bench::stack_measure();
+      ++mags;
+      bench_announce(resting ? "field: add_mag(), in a rest, per call (50 Hz)"
+                             : "field: add_mag(), no rest open, per call (50 Hz)");
+    }
+    FieldEvent<float> e;
+    while (calibrator.take_event(e)) ++events;
+    // The 1 Hz temperature variant, same frame, field not given (add_raw() only).
+    if (s.temperature_new && s.t_s >= next_temperature_s) {
+      next_temperature_s += 1.0;
+    } else {
+      g_temperature = std::numeric_limits<float>::quiet_NaN();
+    }
+    const std::uint32_t before_1hz = decisions(calibrator_1hz.counts());
+    bench::stack_paint();
+    imucal_bench_begin();
+    calibrator_1hz.add_raw(g_frame, g_temperature);
+    imucal_bench_end();
+    bench::stack_measure();
+    bench_announce(decisions(calibrator_1hz.counts()) != before_1hz
+                       ? "field, temperature at 1 Hz: add_raw(), a rest handed out or judged"
+                   : t.still ? "field, temperature at 1 Hz: add_raw(), still, per frame"
+                             : "field, temperature at 1 Hz: add_raw(), moving, per frame");
+    while (calibrator_1hz.take_event(e)) {
+    }
+  }
+  report_stack("field add_raw(), add_mag()");
+
+  const FieldCounts& c = calibrator.counts();
+  Vector3<float> bias;
+  const bool published = calibrator.gyro_bias(bias);
+  std::printf(
+      "RESULT field: start %s, %u frames (%u refused), %u add_mag() calls, %u events: %u rests, "
+      "%u taken, %u turning, %u held, %u unconfirmed, %u changes, %u updates; published %d; "
+      "sizeof %u\n",
+      to_string(started), static_cast<unsigned>(frames), static_cast<unsigned>(refused),
+      static_cast<unsigned>(mags), static_cast<unsigned>(events), static_cast<unsigned>(c.rests),
+      static_cast<unsigned>(c.taken), static_cast<unsigned>(c.turning),
+      static_cast<unsigned>(c.held), static_cast<unsigned>(c.unconfirmed),
+      static_cast<unsigned>(c.changes), static_cast<unsigned>(c.updates), published ? 1 : 0,
+      static_cast<unsigned>(sizeof(calibrator)));
+  std::printf(
+      "RESULT field, temperature at 1 Hz (no magnetometer): %u rests, %u taken, %u "
+      "updates\n",
+      static_cast<unsigned>(calibrator_1hz.counts().rests),
+      static_cast<unsigned>(calibrator_1hz.counts().taken),
+      static_cast<unsigned>(calibrator_1hz.counts().updates));
+  return started == Status::kOk && refused == 0 && published ? 0 : 1;
+}
