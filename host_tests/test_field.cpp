@@ -14,6 +14,7 @@
 #include "imucal/field/field_calibrator.hpp"
 #include "imucal/field/field_store.hpp"
 #include "imucal/port/sim_nor_flash.hpp"
+#include "imucal/sim/field_settings.hpp"
 #include "imucal/sim/life_sim.hpp"
 #include "imucal/sim/random.hpp"
 
@@ -77,15 +78,7 @@ TEST(BiasFilter, ClampsBeyondWhatItSawWhileItsVarianceGrows) {
 // ---- The calibrator on bad input ----
 
 FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
-  FieldSettings<float> s;
-  const double bw = std::sqrt(0.5 * sheet.rate_hz);
-  const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
-  const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
-  s.gyro_noise = static_cast<float>(3.0 * g * g);
-  s.accel_noise = static_cast<float>(3.0 * a * a);
-  s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
-  s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
-  return s;
+  return sim::field_settings(sheet);
 }
 
 FieldSettings<float> plain_settings() {

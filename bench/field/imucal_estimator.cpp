@@ -11,6 +11,7 @@
 
 #include "estimator.hpp"
 #include "imucal/field/field_calibrator.hpp"
+#include "imucal/sim/field_settings.hpp"
 
 namespace imucal::field_bench {
 namespace {
@@ -18,16 +19,7 @@ namespace {
 class ImucalEstimator final : public Estimator {
  public:
   explicit ImucalEstimator(const sim::DeviceSheet& sheet) : scale_(sheet.gyro_rad_s_per_count) {
-    FieldSettings<float> s;
-    // Per-sample white noise over the Nyquist band, summed over the three axes (raw units^2).
-    const double bw = std::sqrt(0.5 * sheet.rate_hz);
-    const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
-    const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
-    s.gyro_noise = static_cast<float>(3.0 * g * g);
-    s.accel_noise = static_cast<float>(3.0 * a * a);
-    s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
-    s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
-    field_.start(s);
+    field_.start(sim::field_settings(sheet));
   }
 
   void feed(const sim::LifeSample& s, const sim::LifeTruth*) override {

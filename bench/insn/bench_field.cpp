@@ -28,6 +28,7 @@
 #include <limits>
 
 #include "imucal/field/field_calibrator.hpp"
+#include "imucal/sim/field_settings.hpp"
 #include "imucal/sim/life_sim.hpp"
 #include "markers.hpp"
 #include "stack_paint.hpp"
@@ -88,36 +89,14 @@ sim::LifePlan bench_plan() {
   return plan;
 }
 
-// As host_tests/test_field.cpp: the noise at rest and the gyro's scale from the datasheet.
+// The noise at rest and the gyro's scale from the datasheet, as the tests set it up.
 FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
-  FieldSettings<float> s;
-  const double bw = std::sqrt(0.5 * sheet.rate_hz);
-  const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
-  const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
-  s.gyro_noise = static_cast<float>(3.0 * g * g);
-  s.accel_noise = static_cast<float>(3.0 * a * a);
-  s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
-  s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
-  return s;
+  return sim::field_settings(sheet);
 }
 
 // Everything a rest's judging changes (on_rest() and judge() count each piece somewhere).
 std::uint32_t decisions(const FieldCounts& c) {
   return c.rests + c.taken + c.turning + c.held + c.unconfirmed + c.changes + c.updates;
-}
-
-[[gnu::noinline]] void report_stack(const char* name) {
-  const bench::StackSeries s = bench::stack_series_result();
-  if (s.measures == 0) {
-    std::printf("STACK %s: not measured (no paint routine for this core)\n", name);
-  } else if (s.sp_moved) {
-    std::printf("STACK %s: not measured (main's SP moved between the calls)\n", name);
-  } else if (s.window_overflow) {
-    std::printf("STACK %s: not measured (something went deeper than the %u B window)\n", name,
-                static_cast<unsigned>(s.window));
-  } else {
-    std::printf("STACK %s: %u B\n", name, static_cast<unsigned>(s.max_bytes));
-  }
 }
 
 // Names the judged call by its decisions (the counts that changed).
@@ -199,7 +178,7 @@ int main() {
     while (calibrator_1hz.take_event(e)) {
     }
   }
-  report_stack("field add_raw(), add_mag()");
+  bench::report_stack("field add_raw(), add_mag()");
 
   const FieldCounts& c = calibrator.counts();
   Vector3<float> bias;

@@ -32,20 +32,6 @@ ImuSample<float> sample;
 // repainted each time (the rest, painted once, is checked at the end for anything deeper).
 constexpr std::uintptr_t kAddStackWindow = 4096;
 
-// Prints the stack series just measured (stack_paint.hpp) as "STACK <name>: <bytes> B".
-[[gnu::noinline]] void report_stack(const char* name) {
-  const bench::StackSeries s = bench::stack_series_result();
-  if (s.measures == 0) {
-    std::printf("STACK %s: not measured (no paint routine for this core)\n", name);
-  } else if (s.sp_moved) {
-    std::printf("STACK %s: not measured (main's SP moved between the calls)\n", name);
-  } else if (s.window_overflow) {
-    std::printf("STACK %s: not measured (something went deeper than the %u B window)\n", name,
-                static_cast<unsigned>(s.window));
-  } else {
-    std::printf("STACK %s: %u B\n", name, static_cast<unsigned>(s.max_bytes));
-  }
-}
 // The recording as signed 16-bit frames (unsigned counts less 32768).
 RawFrame frame_of(double t, const Vector3<float>& acc, const Vector3<float>& gyro) {
   RawFrame f;
@@ -191,7 +177,7 @@ int main() {
                    : calibrator.still() ? "add(): still, per sample"
                                         : "add(): moving, per sample");
   }
-  report_stack("add()");
+  bench::report_stack("add()");
   bench::stack_series_start(0);  // all of the free stack, every time
   bench::stack_paint();
   imucal_bench_begin();
@@ -209,7 +195,7 @@ int main() {
     bench_announce(gyro_stage ? "solve_step(): gyro, per step"
                               : "solve_step(): accelerometer, per step");
   }
-  report_stack("solve()/solve_step()");
+  bench::report_stack("solve()/solve_step()");
   const Progress p = calibrator.progress();
   const Status solved = st;
   std::printf("RESULT %s: %d poses, %d moves, %d segments, gyro %d iterations, sizeof %u\n",

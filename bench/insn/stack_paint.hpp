@@ -47,6 +47,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 
 #if !defined(__arm__) && !(defined(__riscv) && __riscv_xlen == 32)
 #error "stack_paint.hpp: Arm Cortex-M or RV32 only"
@@ -367,3 +368,20 @@ inline StackSeries stack_series_result() { return StackSeries{}; }
 }  // namespace imucal::bench
 
 #endif
+
+namespace imucal::bench {
+// Prints the stack series just measured as "STACK <name>: <bytes> B".
+[[gnu::noinline]] inline void report_stack(const char* name) {
+  const bench::StackSeries s = stack_series_result();
+  if (s.measures == 0) {
+    std::printf("STACK %s: not measured (no paint routine for this core)\n", name);
+  } else if (s.sp_moved) {
+    std::printf("STACK %s: not measured (main's SP moved between the calls)\n", name);
+  } else if (s.window_overflow) {
+    std::printf("STACK %s: not measured (something went deeper than the %u B window)\n", name,
+                static_cast<unsigned>(s.window));
+  } else {
+    std::printf("STACK %s: %u B\n", name, static_cast<unsigned>(s.max_bytes));
+  }
+}
+}  // namespace imucal::bench

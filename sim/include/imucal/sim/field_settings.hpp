@@ -1,0 +1,27 @@
+// SPDX-License-Identifier: MIT
+// imucal/sim/field_settings.hpp: the field calibrator's settings for a simulated device, from what
+// its sheet says (never the truth): the per-sample white noise over the Nyquist band from the
+// datasheet densities, summed over the three axes in raw units squared, the gyro's nominal scale
+// and the rate. The tests, the field bench and the instruction counts set it up alike.
+#pragma once
+
+#include <cmath>
+
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/sim/life_sim.hpp"
+
+namespace imucal::sim {
+
+inline FieldSettings<float> field_settings(const DeviceSheet& sheet) {
+  FieldSettings<float> s;
+  const double bw = std::sqrt(0.5 * sheet.rate_hz);
+  const double g = sheet.gyro_noise_rad_s_rthz * bw / sheet.gyro_rad_s_per_count;
+  const double a = sheet.accel_noise_m_s2_rthz * bw / sheet.accel_m_s2_per_count;
+  s.gyro_noise = static_cast<float>(3.0 * g * g);
+  s.accel_noise = static_cast<float>(3.0 * a * a);
+  s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
+  s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
+  return s;
+}
+
+}  // namespace imucal::sim
