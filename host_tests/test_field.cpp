@@ -66,7 +66,7 @@ TEST(BiasFilter, ClampsBeyondWhatItSawWhileItsVarianceGrows) {
   EXPECT_NEAR(f.at(34.0, 5.0)(0), 28.0, 0.05);
   EXPECT_NEAR(f.at(50.0, 5.0)(0), 30.0, 0.05);
   EXPECT_NEAR(f.at(-10.0, 5.0)(0), -10.0, 0.05);
-  EXPECT_NEAR(f.at(kNaN, 5.0)(0), 0.0, 0.05);  // no temperature: at T0
+  EXPECT_NEAR(f.at(std::numeric_limits<double>::quiet_NaN(), 5.0)(0), 0.0, 0.05);  // at T0
   EXPECT_GT(f.variance_at(50.0), 4.0 * f.variance_at(25.0));
   // The walk widens only the bias at T0.
   const double p11 = f.p(1, 1), p00 = f.p(0, 0);
