@@ -1,28 +1,35 @@
 // SPDX-License-Identifier: MIT
 // imucal/field/field_calibrator.hpp: keeps the gyro's bias right through normal use, with nobody
-// turning the device (field.md sections 1, 2 and 6). It runs forever on the raw stream.
+// turning the device (the design's field.md sections 1, 2 and 6; docs/field.md). It runs forever
+// on the raw stream.
 //
 // The stream layer finds the rests: a RestMonitor (rest_monitor.hpp: the protocol's checks,
 // detector, blocks and rests) hands out every rest of min_rest_seconds or more, split into pieces
-// of at most max_rest_seconds. Each rest is judged before it may move anything:
-//   - a steady turn: consecutive pieces of one rest whose mean gravity direction turns faster
-//     than turn_rate_max are a slow rotation taken for a rest (a car's bend, a turntable): every
-//     piece of that rest is refused (kTurning). A piece is judged once the next piece or the end
-//     of the rest is known.
-//   - consistency: the rest's mean gyro against the bias filter's prediction at its temperature
-//     (bias_filter.hpp: bias and slope per axis, a random walk between rests), a chi-square(3)
-//     gate. A rest within the gate is taken into the filter. One outside is held as a candidate
-//     (a turn about the vertical looks like a bias inside one rest): a later rest after motion
-//     that agrees with it confirms a change (a knock; kChangeDetected: the filter's bias
-//     variance grows by change_sigma^2 and both rests are taken); one that agrees with the filter
-//     instead drops it (kRejected, kUnconfirmed).
+// of at most max_rest_seconds. Each piece is judged before it may move anything (a piece is judged
+// once the next piece of its rest or the rest's end is known):
+//   - turned: two consecutive pieces of one rest whose mean gravity direction turned faster than
+//     turn_rate_max, or (with a magnetometer, add_mag()) whose mean fields differ by more than
+//     their noise allows, are a slow rotation taken for a rest (a car's bend, a turntable) or a
+//     magnet passing: both are refused (kRejected, kTurning). A rate that changed between them
+//     (a turn's tail) refuses the earlier one. Pieces that pass are steady; with a magnetometer,
+//     verified.
+//   - consistency: the piece's mean gyro against the bias filter's prediction at its temperature
+//     (bias_filter.hpp: bias, slope and curvature per axis, a random walk between rests), a
+//     chi-square(3) gate. A piece within the gate is taken into the filter. One outside is held
+//     as a candidate (kHeld; a turn about the vertical looks like a bias inside one rest) and the
+//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later, or
+//     three steady rests across motion over change_seconds, that agree with it confirm a change (a
+//     knock; kChangeDetected: the filter's bias variance grows by change_sigma^2); a piece that
+//     agrees with the filter instead drops it (kRejected, kUnconfirmed).
 // What the device applies is the *published* bias model, not the filter: the filter's model
-// replaces it only when the two differ significantly (publish_chi2 on the difference with both
-// variances) and the filter's variance is the smaller (kUpdated); or at once after a change
-// (kUpdated, kChange). The first publication waits for first_rests rests after motion. Both
-// models age with the random walk, so the published sigma stays honest. Every decision is an
-// event (take_event()). The detector removes the published bias, so a turn held back stays
-// visible as motion-like energy.
+// replaces it (kUpdated) only when the two differ significantly (publish_chi2 on the difference
+// with both variances) and the filter's variance is the smaller, or when the filter's variance is
+// at most better_ratio of the published one; or at once after a change. The first publication
+// waits for first_rests independent rests. Both models age with the random walk, so the
+// published sigma stays honest. The temperature it is evaluated at is smoothed without lag on a
+// ramp. Every decision is an event (take_event()). The detector removes the published bias, so a
+// turn held back stays visible as motion-like energy. save_due() and mark_saved() keep the saves
+// within a wear budget (field_store.hpp writes them through the record store).
 //
 // Units: raw gyro units (the bias is ADDED to the raw reading, as in the calibration:
 // w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
