@@ -61,10 +61,10 @@ Status ne_add(Scalar* h, Scalar* v, Scalar& f, Scalar& trace, int n, const Scala
 
 // LDL^T of the Jacobi-scaled matrix (H + lambda diag(H)) / diag(H), into l (leading dimension n:
 // L in its strict lower triangle) and the pivots d, with the scale 1 / sqrt(H_ii); checked for
-// rank and conditioning.
+// rank and conditioning (pivots below min_ratio of the largest: ill-conditioned).
 template <typename Scalar>
 __attribute__((noinline)) Status ne_factor(const Scalar* h, int rows, int n, Scalar lambda,
-                                           Scalar* scale, Scalar* l, Scalar* d) {
+                                           Scalar* scale, Scalar* l, Scalar* d, Scalar min_ratio) {
   if (!std::isfinite(lambda) || lambda < Scalar(0)) return Status::kInvalidArgument;
   if (rows == 0) return Status::kRankDeficient;
   for (int i = 0; i < n; ++i) {
@@ -78,7 +78,7 @@ __attribute__((noinline)) Status ne_factor(const Scalar* h, int rows, int n, Sca
     ++k;
     for (int r = c + 1; r < n; ++r) l[c * n + r] = h[k++] * scale[r] * scale[c];  // lower
   }
-  return ldlt_factor(l, n, d, min_pivot_ratio<Scalar>(n));
+  return ldlt_factor(l, n, d, min_ratio);
 }
 
 // Gauss-Newton model of the decrease of f for a step delta: -(2 delta.v + delta^T H delta).
@@ -161,6 +161,12 @@ class NormalEquations {
   }
 
   int rows() const { return rows_; }
+
+  // The smallest pivot ratio taken as non-singular (min_pivot_ratio(size()) unless set; 0 or
+  // less restores that). A problem whose rows include a prior on every unknown is positive
+  // definite by construction, and its weak directions are the prior's: there a ratio of a few
+  // epsilon guards only against rounding.
+  void set_min_pivot_ratio(Scalar ratio) { min_ratio_ = ratio; }
   Scalar weighted_sse() const { return f_; }     // f = sum w e^2
   const Vector& gradient() const { return v_; }  // v = sum w J^T e (half the gradient of f)
 
@@ -186,7 +192,8 @@ class NormalEquations {
     Vector scale;
     Scalar l[static_cast<std::size_t>(N * N)];
     Vector d;
-    const Status s = detail::ne_factor(h_, rows_, n_, lambda, scale.data(), l, d.data());
+    const Status s =
+        detail::ne_factor(h_, rows_, n_, lambda, scale.data(), l, d.data(), min_ratio());
     if (s != Status::kOk) return s;
     Vector x = Vector::Zero();
     for (int i = 0; i < n_; ++i) x(i) = -scale(i) * v_(i);
@@ -261,7 +268,8 @@ class NormalEquations {
     Vector scale;
     Scalar l[static_cast<std::size_t>(N * N)];
     Vector d;
-    const Status s = detail::ne_factor(h_, rows_, n_, Scalar(0), scale.data(), l, d.data());
+    const Status s =
+        detail::ne_factor(h_, rows_, n_, Scalar(0), scale.data(), l, d.data(), min_ratio());
     if (s != Status::kOk) return s;
     if (variance < Scalar(0)) variance = f_ / Scalar(rows_ - n_);
     for (int c = 0; c < n_; ++c) {
@@ -281,6 +289,11 @@ class NormalEquations {
   Scalar trace_ = Scalar(0);  // trace of H: the overflow guard
   int rows_ = 0;
   int n_ = N;
+  Scalar min_ratio_ = Scalar(0);
+
+  Scalar min_ratio() const {
+    return min_ratio_ > Scalar(0) ? min_ratio_ : min_pivot_ratio<Scalar>(n_);
+  }
 };
 
 }  // namespace imucal
