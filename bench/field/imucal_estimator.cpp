@@ -3,9 +3,10 @@
 // as a firmware would run it: every frame of 16-bit counts through add_raw() with the latest
 // temperature, from the nominal prior (no stored calibration), set up from what the device's
 // sheet says (the nominal gyro scale, the datasheet noise densities). What it would apply each
-// second: the published bias model at the current temperature, with its sigma.
+// second: the published bias models (gyro, accelerometer) at the current temperature, with their
+// sigmas.
 // The bias it publishes is ADDED to the counts; the bench's convention is an SI offset
-// subtracted from the nominally scaled reading: -s_g * b.
+// subtracted from the nominally scaled reading: -s_g * b (-s_a * b for the accelerometer).
 #include <cmath>
 #include <memory>
 
@@ -18,7 +19,8 @@ namespace {
 
 class ImucalEstimator final : public Estimator {
  public:
-  explicit ImucalEstimator(const sim::DeviceSheet& sheet) : scale_(sheet.gyro_rad_s_per_count) {
+  explicit ImucalEstimator(const sim::DeviceSheet& sheet)
+      : scale_(sheet.gyro_rad_s_per_count), accel_scale_(sheet.accel_m_s2_per_count) {
     field_.start(sim::field_settings(sheet));
   }
 
@@ -42,11 +44,17 @@ class ImucalEstimator final : public Estimator {
     e.gyro_bias.has_sigma = true;
     e.gyro_bias.sigma.setConstant(scale_ * static_cast<double>(sigma));
     e.gyro_bias.updates = field_.counts().updates;
+    Vector3<float> a, sa;
+    e.accel_bias.valid = field_.accel_bias(a, &sa);
+    e.accel_bias.value = -accel_scale_ * a.cast<double>();
+    e.accel_bias.has_sigma = true;
+    e.accel_bias.sigma = accel_scale_ * sa.cast<double>();
+    e.accel_bias.updates = field_.counts().accel_updates;
     return e;
   }
 
  private:
-  double scale_;
+  double scale_, accel_scale_;
   FieldCalibrator<float> field_;
 };
 

@@ -41,6 +41,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "imucal/field/accel_field.hpp"
 #include "imucal/field/bias_filter.hpp"
 #include "imucal/models/calibration.hpp"
 #include "imucal/models/temperature_model.hpp"
@@ -94,6 +95,9 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
   // 5.5 saves a day.
   Scalar save_interval_s = Scalar(14400);
   int saves_per_day = 5;
+  // The accelerometer's model from the same rests (accel_field.hpp); kept when
+  // accel.accel_per_m_s2 is set (NaN: the gyro alone).
+  AccelFieldSettings<Scalar> accel{};
 };
 
 enum class FieldEventKind : std::uint8_t {
@@ -151,12 +155,20 @@ inline const char* field_reason_name(FieldReason r) {
   }
 }
 
-// One decision. value: the published bias at temperature_c after it (raw, added); chi2: the
-// statistic it was decided by (the gate's, the publication's, or the turn rate over its bound).
+enum class FieldSensor : std::uint8_t { kGyro = 0, kAccel = 1 };
+
+inline const char* field_sensor_name(FieldSensor s) {
+  return s == FieldSensor::kGyro ? "gyro" : "accel";
+}
+
+// One decision. value: the sensor's published bias at temperature_c after it (raw, added); chi2:
+// the statistic it was decided by (the gate's, the publication's, or the turn rate over its
+// bound). A kSaved event is the gyro's and stands for the whole record.
 template <typename Scalar>
 struct FieldEvent {
   FieldEventKind kind = FieldEventKind::kUpdated;
   FieldReason reason = FieldReason::kNone;
+  FieldSensor sensor = FieldSensor::kGyro;
   std::uint32_t time_s = 0;  // seconds since the calibrator started (the stream's clock)
   Scalar temperature_c = std::numeric_limits<Scalar>::quiet_NaN();
   Scalar chi2 = Scalar(0);
@@ -174,6 +186,10 @@ struct FieldCounts {
   std::uint32_t updates = 0;  // publications
   std::uint32_t saves = 0;    // publications saved (mark_saved())
   std::uint32_t events_dropped = 0;
+  // The accelerometer's: rests held outside its gate, changes, publications.
+  std::uint32_t accel_held = 0;
+  std::uint32_t accel_changes = 0;
+  std::uint32_t accel_updates = 0;
 };
 
 template <typename Scalar, int Events = 8>
@@ -271,6 +287,21 @@ class FieldCalibrator {
         result = Status::kNonFiniteInput;
       }
     }
+    {  // the accelerometer's model, when its scale is set
+      AccelFieldSettings<Scalar> a = settings.accel;
+      a.enabled = a.enabled && !std::isnan(a.accel_per_m_s2);
+      const bool noted = prior != nullptr && prior->has_temperature;
+      const Scalar t0 =
+          noted && std::isfinite(prior->temperature_c) ? prior->temperature_c : filter_.reference_c;
+      const Status s = accel_.start(a, prior != nullptr ? &prior->accel : nullptr, temperature, t0);
+      if (s == Status::kInvalidArgument) {
+        valid_ = false;
+        return s;
+      }
+      if (s != Status::kOk && result == Status::kOk) result = s;
+    }
+    accel_rests_ = 0;
+    accel_noise_axis_ = settings.accel_noise / Scalar(3);
     gyro_cue_ = has_published_;
     monitor_.reset(monitor_settings(gyro_cue_));
     rests_seen_ = 0;
@@ -361,6 +392,10 @@ class FieldCalibrator {
     out.gyro.b1_sigma.setConstant(std::sqrt(published_.p(1, 1)));
     out.gyro.b2_sigma.setConstant(std::sqrt(published_.p(2, 2)));
     out.gyro.status = has_published_ ? Status::kOk : Status::kNotStarted;
+    if (accel_.published()) {
+      AccelCalibration<Scalar> unused;
+      accel_.model(unused, out.accel);
+    }
   }
 
   // The calibration the device applies now, for the corrector or a record: the prior's (or the
@@ -370,7 +405,27 @@ class FieldCalibrator {
   bool calibration(Calibration<Scalar>& out, TemperatureModel<Scalar>& model) const {
     out = base_;
     published_model(model);
-    if (!has_published_) return false;
+    if (accel_.published()) {
+      const int poses = out.accel.poses;
+      accel_.model(out.accel, model.accel);
+      out.accel.status = Status::kOk;
+      // A record's accelerometer part counts at least kAccelMinPoses poses: the prior's, or the
+      // rests the field model took.
+      const std::uint32_t n = accel_rests_ + static_cast<std::uint32_t>(poses > 0 ? poses : 0);
+      out.accel.poses = static_cast<int>(n < static_cast<std::uint32_t>(kAccelMinPoses)
+                                             ? static_cast<std::uint32_t>(kAccelMinPoses)
+                                             : (n > 65535u ? 65535u : n));
+      if (!has_published_) {
+        out.has_temperature = true;
+        out.temperature_c = accel_.reference_c();
+        model.reference_c = accel_.reference_c();
+        if (accel_.seen_temperature()) {
+          model.min_c = accel_.min_c() - settings_.temperature_margin_c;
+          model.max_c = accel_.max_c() + settings_.temperature_margin_c;
+        }
+      }
+    }
+    if (!has_published_) return accel_.published();
     out.gyro.params.template tail<3>() = published_.c;
     out.gyro.sigma.template tail<3>().setConstant(std::sqrt(published_.p(0, 0)));
     out.has_temperature = true;
@@ -419,6 +474,22 @@ class FieldCalibrator {
   bool published() const { return has_published_; }
   const BiasFilter<Scalar>& published_filter() const { return published_; }
   const BiasFilter<Scalar>& filter() const { return filter_; }
+  const AccelField<Scalar>& accel_field() const { return accel_; }
+
+  // The accelerometer's bias the device applies at the smoothed temperature() (raw, added), its
+  // sigma per axis; false before its first publication (then the prior's) or without the
+  // accelerometer's model (FieldSettings::accel).
+  bool accel_bias(Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr) const {
+    return accel_bias(temperature_, out, sigma);
+  }
+  bool accel_bias(Scalar t, Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr) const {
+    if (!accel_.enabled()) {
+      out.setZero();
+      if (sigma != nullptr) sigma->setZero();
+      return false;
+    }
+    return accel_.bias(t, settings_.temperature_margin_c, out, sigma);
+  }
   const FieldCounts& counts() const { return counts_; }
   const RestMonitor<Scalar, 2>& monitor() const { return monitor_; }
   const Settings& settings() const { return settings_; }
@@ -447,6 +518,7 @@ class FieldCalibrator {
     Vector3<Scalar> acc = Vector3<Scalar>::Zero();  // mean accelerometer (raw)
     Vector3<Scalar> mag = Vector3<Scalar>::Zero();  // mean magnetometer (raw; with has_mag)
     Scalar mag_var = Scalar(0);                     // the variance of that mean, summed over axes
+    Scalar acc_var = Scalar(0);                     // the variance of acc per axis
     bool has_mag = false;
     bool steady = false;        // the piece before in its rest agreed: same rate, same gravity
     bool verified = false;      // ... and the same field (no turn about the vertical either)
@@ -493,6 +565,17 @@ class FieldCalibrator {
       judge(pending_piece_);
       pending_ = false;
     }
+    if (accel_.busy() && accel_.step() == AccelFieldEvent::kUpdated) accel_published();
+  }
+
+  void accel_published() {
+    static constexpr FieldReason kWhy[4] = {FieldReason::kFirst, FieldReason::kSignificant,
+                                            FieldReason::kBetter, FieldReason::kChange};
+    const int r = accel_.update_reason();
+    ++counts_.accel_updates;
+    unsaved_ = true;
+    event(FieldEventKind::kUpdated, kWhy[r < 0 || r > 3 ? 0 : r], temperature_, accel_.last_chi2(),
+          FieldSensor::kAccel);
   }
 
   // Where a timestamp of the recent past lies on the elapsed clock.
@@ -507,6 +590,7 @@ class FieldCalibrator {
     Piece p;
     p.z = -r.gyro_mean;
     p.acc = r.accel_mean;
+    p.acc_var = accel_noise_axis_ / static_cast<Scalar>(r.samples);
     p.r = noise_axis_ / static_cast<Scalar>(r.samples) + q_ * r.duration_s / Scalar(3) + floor2_;
     p.t = r.has_temperature ? r.temperature_c : std::numeric_limits<Scalar>::quiet_NaN();
     p.end_us = elapsed_at(r.end_us);
@@ -697,6 +781,22 @@ class FieldCalibrator {
   void take(const Piece& p) {
     filter_.update(p.z, p.r, p.t);
     ++counts_.taken;
+    if (accel_.enabled()) {  // the rests the gyro takes are rests for the accelerometer too
+      ++accel_rests_;
+      const AccelFieldEvent e = accel_.add(p.acc, p.acc_var, p.t, p.end_us, p.group);
+      if (e == AccelFieldEvent::kHeld) {
+        ++counts_.accel_held;
+        event(FieldEventKind::kHeld, FieldReason::kInconsistent, p.t, accel_.last_chi2(),
+              FieldSensor::kAccel);
+      } else if (e == AccelFieldEvent::kUnconfirmed) {
+        event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, p.t, accel_.last_chi2(),
+              FieldSensor::kAccel);
+      } else if (e == AccelFieldEvent::kChangeDetected) {
+        ++counts_.accel_changes;
+        event(FieldEventKind::kChangeDetected, FieldReason::kNone, p.t, accel_.last_chi2(),
+              FieldSensor::kAccel);
+      }
+    }
     last_taken_group_ = p.group;
     if (independent_ == 0 || independent_of(last_independent_, p)) {
       last_independent_ = p;
@@ -755,14 +855,19 @@ class FieldCalibrator {
     return m;
   }
 
-  void event(FieldEventKind kind, FieldReason why, Scalar t, Scalar chi2) {
+  void event(FieldEventKind kind, FieldReason why, Scalar t, Scalar chi2,
+             FieldSensor sensor = FieldSensor::kGyro) {
     FieldEvent<Scalar> e;
     e.kind = kind;
     e.reason = why;
+    e.sensor = sensor;
     e.time_s = static_cast<std::uint32_t>(elapsed_us_ / 1000000u);
     e.temperature_c = t;
     e.chi2 = chi2;
-    e.value = published_.at(t, settings_.temperature_margin_c);
+    if (sensor == FieldSensor::kAccel)
+      accel_.bias(t, settings_.temperature_margin_c, e.value);
+    else
+      e.value = published_.at(t, settings_.temperature_margin_c);
     if (events_.push(e)) ++counts_.events_dropped;
   }
 
@@ -800,6 +905,9 @@ class FieldCalibrator {
   std::uint32_t group_ = 0, independent_ = 0, last_taken_group_ = 0;
   FieldCounts counts_{};
   Ring<FieldEvent<Scalar>, Events> events_{};
+  AccelField<Scalar> accel_{};
+  std::uint32_t accel_rests_ = 0;  // rests the accelerometer's model took
+  Scalar accel_noise_axis_ = Scalar(0);
 };
 
 }  // namespace imucal

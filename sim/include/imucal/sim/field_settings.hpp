@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 // imucal/sim/field_settings.hpp: the field calibrator's settings for a simulated device, from what
 // its sheet says (never the truth): the per-sample white noise over the Nyquist band from the
-// datasheet densities, summed over the three axes in raw units squared, the gyro's nominal scale
-// and the rate. The tests, the field bench and the instruction counts set it up alike.
+// datasheet densities, summed over the three axes in raw units squared, the gyro's and the
+// accelerometer's nominal scales, the accelerometer's tolerances (its prior) and the rate. The
+// tests, the field bench and the instruction counts set it up alike.
 #pragma once
 
 #include <cmath>
@@ -20,6 +21,14 @@ inline FieldSettings<float> field_settings(const DeviceSheet& sheet) {
   s.gyro_noise = static_cast<float>(3.0 * g * g);
   s.accel_noise = static_cast<float>(3.0 * a * a);
   s.gyro_per_rad_s = static_cast<float>(1.0 / sheet.gyro_rad_s_per_count);
+  s.accel.accel_per_m_s2 = static_cast<float>(1.0 / sheet.accel_m_s2_per_count);
+  s.accel.gravity = static_cast<float>(sheet.gravity);
+  // The prior's sigmas from the datasheet's bounds, read as uniform spreads (bound / sqrt 3).
+  const double u = 1.0 / std::sqrt(3.0);
+  s.accel.bias_sigma = static_cast<float>(sheet.accel_offset_m_s2 * u);
+  s.accel.scale_sigma = static_cast<float>(sheet.accel_scale_tolerance * u);
+  s.accel.misalignment_sigma = static_cast<float>(sheet.accel_misalignment_rad * u);
+  s.accel.slope_sigma = static_cast<float>(sheet.accel_offset_drift_m_s2_c * u);
   s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
   return s;
 }

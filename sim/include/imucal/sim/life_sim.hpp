@@ -101,6 +101,13 @@ struct DeviceSheet {
   double mag_ut_per_count;
   bool has_temperature;
   double gravity;
+  // The accelerometer's datasheet tolerances (bounds, as a datasheet states them): the zero-g
+  // offset (m/s^2), the scale (relative), the axes' misalignment (rad), the offset's drift with
+  // temperature (m/s^2 per deg C).
+  double accel_offset_m_s2;
+  double accel_scale_tolerance;
+  double accel_misalignment_rad;
+  double accel_offset_drift_m_s2_c;
 };
 
 enum class PhaseKind : std::uint8_t {
@@ -410,7 +417,11 @@ class LifeSimulator {
             s.mag_rate_hz,
             s.mag_ut_per_lsb,
             s.has_temperature,
-            s.gravity};
+            s.gravity,
+            s.accel_bias_mg * 1e-3 * s.gravity,
+            s.accel_scale_spread,
+            s.accel_misalignment,
+            s.accel_slope_max_mg_c * 1e-3 * s.gravity};
   }
   // The true ambient temperature (without self-heating) at time t.
   double ambient_c(double t) const {
