@@ -351,21 +351,27 @@ TEST(AccelField, AStepIsHeldThenConfirmedAndFollowed) {
     EXPECT_LT(std::fabs(a.published_parameters()(k) - before(k)),
               0.5f * a.published_sigmas()(k) + 1e-6f)
         << "parameter " << k;
-  // A step of 20 mg on z, seen by rests after motion: held, then a change.
+  // A step of 20 mg on z, seen by rests after motion: held, then a change. Until the cells
+  // support a new model, the published one stays with its bias's sigma widened to cover the step.
   truth.p(kBiasZ) += 196.0;
   EXPECT_EQ(rest(up), AccelFieldEvent::kHeld);
   bool updated = false;
   EXPECT_EQ(rest(-up, &updated), AccelFieldEvent::kChangeDetected);
-  EXPECT_TRUE(updated);
-  EXPECT_EQ(a.update_reason(), 3);
-  for (int i = 0; i < 32; ++i) {
-    const StructuredRest r = structured_rest(i, rng);
-    feed_rest(a, truth, r.u, r.t, 4.9, rng, t_us, group++);
-    t_us += 60000000u;
-  }
   const float want = static_cast<float>(truth.p(kBiasZ) / 9806.65);
   EXPECT_LT(std::fabs(a.published_parameters()(kBiasZ) - want),
             3.5f * a.published_sigmas()(kBiasZ));
+  bool change_published = updated && a.update_reason() == 3;
+  for (int i = 0; i < 32; ++i) {
+    const StructuredRest r = structured_rest(i, rng);
+    updated = false;
+    feed_rest(a, truth, r.u, r.t, 4.9, rng, t_us, group++, &updated);
+    if (updated && a.update_reason() == 3) change_published = true;
+    t_us += 60000000u;
+  }
+  EXPECT_TRUE(change_published);
+  EXPECT_LT(std::fabs(a.published_parameters()(kBiasZ) - want),
+            3.5f * a.published_sigmas()(kBiasZ));
+  EXPECT_LT(a.published_sigmas()(kBiasZ), 0.1f * 0.029f);  // back below 3 mg
 }
 
 // Started from the right model with a protocol's sigmas, rests that agree change nothing beyond

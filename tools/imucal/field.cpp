@@ -43,11 +43,13 @@ const char* const kNotField[] = {"poses",          "refine-gyro-bias", "double",
 // One decision, as the timeline shows it.
 struct EventRow {
   std::uint32_t time_s = 0;  // since the first sample, on the stream's clock
+  const char* sensor = "";   // field_sensor_name()
   const char* kind = "";     // field_event_name()
   const char* reason = "";   // field_reason_name()
   double temperature_c = kNaN;
   double chi2 = kNaN;
-  double bias[3] = {0, 0, 0};  // the published bias after it, at temperature_c (raw, added)
+  double bias[3] = {0, 0,
+                    0};  // the sensor's published bias after it, at temperature_c (raw, added)
 };
 
 struct FieldRun {
@@ -74,7 +76,13 @@ struct FieldRun {
   // --at-temperature.
   double filter_bias[3] = {kNaN, kNaN, kNaN}, filter_sigma = kNaN;
   double filter_at_bias[3] = {kNaN, kNaN, kNaN}, filter_at_sigma = kNaN;
-  TemperatureModel<float> model{};            // the published one
+  TemperatureModel<float> model{};  // the published one
+  // The accelerometer's model (kept when its nominal scale is known): the bias it applies at the
+  // temperature now (raw, added) with its sigma per axis, and the model in sensor units.
+  bool accel_enabled = false, accel_published = false;
+  double accel_bias[3] = {kNaN, kNaN, kNaN}, accel_sigma[3] = {kNaN, kNaN, kNaN};
+  double accel_per_m_s2 = kNaN;
+  AccelCalibration<float> accel{};
   std::map<std::string, StreamEvent> stream;  // refused and noted samples, by status
   std::vector<EventRow> timeline;             // the first kListed events
   std::deque<EventRow> last;                  // the last kShownLast events
@@ -102,6 +110,7 @@ double gyro_scale(const Options& o, const CalibrationRecord* prior) {
 EventRow event_row(const FieldEvent<float>& e) {
   EventRow r;
   r.time_s = e.time_s;
+  r.sensor = field_sensor_name(e.sensor);
   r.kind = field_event_name(e.kind);
   r.reason = field_reason_name(e.reason);
   r.temperature_c = static_cast<double>(e.temperature_c);
@@ -158,6 +167,12 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
   fs.stillness = cs.stillness;
   fs.glitch_sigma = cs.glitch_sigma;
   fs.gyro_per_rad_s = static_cast<float>(run.gyro_per_rad_s);
+  if (sa > 0) {  // the accelerometer's model needs its nominal scale
+    run.accel_per_m_s2 = 1.0 / sa;
+    fs.accel.accel_per_m_s2 = static_cast<float>(run.accel_per_m_s2);
+    fs.accel.gravity = static_cast<float>(o.gravity);
+    run.accel_enabled = true;
+  }
   if (std::isfinite(o.rest_piece)) fs.max_rest_seconds = static_cast<float>(o.rest_piece);
   run.rest_piece = static_cast<double>(fs.max_rest_seconds);
   const double az = accel_nominal_zero(o);
@@ -181,6 +196,9 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
     const float gz = static_cast<float>(run.gyro_zero);
     for (int a = 0; a < 3; ++a) prior_cal.gyro.params(kGyroBiasX + a) += gz;
     prior_model.gyro.b0 += Vector3<float>::Constant(gz);
+    const float a0 = static_cast<float>(run.accel_zero);
+    for (int a = 0; a < 3; ++a) prior_cal.accel.params(kBiasX + a) += a0;
+    prior_model.accel.b0 += Vector3<float>::Constant(a0);
   }
 
   std::unique_ptr<Calibrator<float>> noise_cal;
@@ -224,7 +242,8 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
                                     static_cast<float>(s.mag[2])));
     FieldEvent<float> e;
     while (field->take_event(e)) {
-      e.value -= Vector3<float>::Constant(static_cast<float>(run.gyro_zero));
+      e.value -= Vector3<float>::Constant(
+          static_cast<float>(e.sensor == FieldSensor::kAccel ? run.accel_zero : run.gyro_zero));
       keep_event(e, run);
     }
   };
@@ -306,6 +325,21 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
     filter_at(static_cast<float>(o.at_temperature), run.filter_at_bias, run.filter_at_sigma);
   field->published_model(run.model);
   run.model.gyro.b0 -= Vector3<float>::Constant(static_cast<float>(run.gyro_zero));
+  if (succeeded(run.model.accel.status))
+    run.model.accel.b0 -= Vector3<float>::Constant(static_cast<float>(run.accel_zero));
+  if (run.accel_enabled) {
+    Vector3<float> ab, as;
+    run.accel_published = field->accel_bias(ab, &as);
+    for (int a = 0; a < 3; ++a) {
+      run.accel_bias[a] = static_cast<double>(ab(a)) - run.accel_zero;
+      run.accel_sigma[a] = static_cast<double>(as(a));
+    }
+    TemperatureModel<float> unused;
+    Calibration<float> cal;
+    field->calibration(cal, unused);
+    run.accel = cal.accel;
+    for (int a = 0; a < 3; ++a) run.accel.params(kBiasX + a) -= static_cast<float>(run.accel_zero);
+  }
   return run.published ? 0 : 1;
 }
 
@@ -313,11 +347,15 @@ std::string vec_text(const double* v, const char* format) {
   return "[" + fmt(format, v[0]) + ", " + fmt(format, v[1]) + ", " + fmt(format, v[2]) + "]";
 }
 
-void print_event(std::FILE* out, const EventRow& e, double to_dps) {
-  const double dps[3] = {e.bias[0] * to_dps, e.bias[1] * to_dps, e.bias[2] * to_dps};
-  std::fprintf(out, "  %9lu  %-15s %-12s %8s %10s  %s\n", static_cast<unsigned long>(e.time_s),
-               e.kind, e.reason, fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
-               vec_text(dps, "% .5f").c_str());
+// An event's bias in deg/s (the gyro's) or mg (the accelerometer's).
+void print_event(std::FILE* out, const EventRow& e, double to_dps, double to_mg) {
+  const bool accel = std::string(e.sensor) == "accel";
+  const double k = accel ? to_mg : to_dps;
+  const double v[3] = {e.bias[0] * k, e.bias[1] * k, e.bias[2] * k};
+  std::fprintf(out, "  %9lu  %-6s %-15s %-12s %8s %10s  %s %s\n",
+               static_cast<unsigned long>(e.time_s), e.sensor, e.kind, e.reason,
+               fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
+               vec_text(v, accel ? "% .2f" : "% .5f").c_str(), accel ? "mg" : "deg/s");
 }
 
 void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) {
@@ -407,21 +445,45 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
   row("b1", g.b1, g.b1_sigma, "% .4g", "/degC");
   row("b2", g.b2, g.b2_sigma, "% .4g", "/degC^2");
 
-  std::fprintf(out, "\ntimeline (%s; t in s since the first sample; bias after it in deg/s)\n",
+  if (run.accel_enabled) {
+    const double to_mg = 1000.0 / (run.accel_per_m_s2 * o.gravity);  // mg per raw unit
+    const double mg[3] = {run.accel_bias[0] * to_mg, run.accel_bias[1] * to_mg,
+                          run.accel_bias[2] * to_mg};
+    const double smg[3] = {run.accel_sigma[0] * to_mg, run.accel_sigma[1] * to_mg,
+                           run.accel_sigma[2] * to_mg};
+    std::fprintf(out, "\naccelerometer bias %s (added to the raw reading), %s:\n",
+                 run.accel_published ? "published" : "NOT published (the prior's)",
+                 std::isfinite(run.temperature_c)
+                     ? ("at " + fmt("%.2f", run.temperature_c) + " deg C").c_str()
+                     : "no temperature in the input");
+    std::fprintf(out, "  b  %s %s\n", vec_pm(run.accel_bias, run.accel_sigma, "% .6g").c_str(),
+                 accel_unit_name(o.accel_unit));
+    std::fprintf(out, "     %s mg; %u rests held, %u changes, %u updates\n",
+                 vec_pm(mg, smg, "% .3f").c_str(), c.accel_held, c.accel_changes, c.accel_updates);
+    if (c.accel_implausible > 0)
+      std::fprintf(out,
+                   "  %u rests refused: their reading is not gravity through the nominal scale "
+                   "(give the accelerometer's zero reading, --accel-zero 32768 for unsigned "
+                   "16-bit counts, or its --accel-lsb-per-g)\n",
+                   c.accel_implausible);
+  }
+
+  const double to_mg = run.accel_enabled ? 1000.0 / (run.accel_per_m_s2 * o.gravity) : std::nan("");
+  std::fprintf(out, "\ntimeline (%s; t in s since the first sample; the sensor's bias after it)\n",
                plural(run.events, "event", "events").c_str());
   if (run.events == 0) return;
-  std::fprintf(out, "  %9s  %-15s %-12s %8s %10s  %s\n", "t", "event", "reason", "temp", "chi2",
-               "published bias");
+  std::fprintf(out, "  %9s  %-6s %-15s %-12s %8s %10s  %s\n", "t", "sensor", "event", "reason",
+               "temp", "chi2", "published bias");
   const std::size_t all = static_cast<std::size_t>(run.events);
   if (all <= kShownFirst + kShownLast) {
-    for (const EventRow& e : run.timeline) print_event(out, e, to_dps);
+    for (const EventRow& e : run.timeline) print_event(out, e, to_dps, to_mg);
     return;
   }
-  for (std::size_t i = 0; i < kShownFirst; ++i) print_event(out, run.timeline[i], to_dps);
+  for (std::size_t i = 0; i < kShownFirst; ++i) print_event(out, run.timeline[i], to_dps, to_mg);
   std::fprintf(out, "  ... %zu events not shown (--json lists %s) ...\n",
                all - kShownFirst - kShownLast,
                all <= kListed ? "every one" : format_text("the first %zu", kListed).c_str());
-  for (const EventRow& e : run.last) print_event(out, e, to_dps);
+  for (const EventRow& e : run.last) print_event(out, e, to_dps, to_mg);
 }
 
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
@@ -478,7 +540,11 @@ std::string field_json(const FieldRun& run, const Options& o) {
                  {"unconfirmed", c.unconfirmed},
                  {"changes", c.changes},
                  {"updates", c.updates},
-                 {"events_dropped", c.events_dropped}};
+                 {"events_dropped", c.events_dropped},
+                 {"accel_held", c.accel_held},
+                 {"accel_changes", c.accel_changes},
+                 {"accel_updates", c.accel_updates},
+                 {"accel_implausible", c.accel_implausible}};
   Json bias;
   bias["published"] = run.published;
   bias["unit"] = gyro_unit_name(o.gyro_unit);
@@ -499,6 +565,24 @@ std::string field_json(const FieldRun& run, const Options& o) {
                            {"value", vec3(run.filter_at_bias)},
                            {"sigma", number(run.filter_at_sigma)}};
   }
+  if (run.accel_enabled) {
+    Json a;
+    a["published"] = run.accel_published;
+    a["unit"] = accel_unit_name(o.accel_unit);
+    a["convention"] = "added to the raw reading";
+    a["value"] = vec3(run.accel_bias);
+    a["sigma"] = vec3(run.accel_sigma);
+    a["temperature_c"] = number(run.temperature_c);
+    Json params, sig;
+    for (int k = 0; k < kAccelParams; ++k) {
+      params[kAccelParamNames[k]] = number(static_cast<double>(run.accel.params(k)));
+      sig[kAccelParamNames[k]] = number(static_cast<double>(run.accel.sigma(k)));
+    }
+    a["model"] = {{"parameters", params}, {"sigma", sig}};
+    j["accel_bias"] = a;
+  } else {
+    j["accel_bias"] = nullptr;
+  }
   const TemperatureModel<float>& m = run.model;
   j["temperature_model"] = {{"model", kTemperatureModel},
                             {"status", to_string(m.gyro.status)},
@@ -511,10 +595,18 @@ std::string field_json(const FieldRun& run, const Options& o) {
                             {"b2", vec3(m.gyro.b2)},
                             {"b0_sigma", vec3(m.gyro.b0_sigma)},
                             {"b1_sigma", vec3(m.gyro.b1_sigma)},
-                            {"b2_sigma", vec3(m.gyro.b2_sigma)}};
+                            {"b2_sigma", vec3(m.gyro.b2_sigma)},
+                            {"accel_status", to_string(m.accel.status)},
+                            {"accel_b0", vec3(m.accel.b0)},
+                            {"accel_b1", vec3(m.accel.b1)},
+                            {"accel_b2", vec3(m.accel.b2)},
+                            {"accel_b0_sigma", vec3(m.accel.b0_sigma)},
+                            {"accel_b1_sigma", vec3(m.accel.b1_sigma)},
+                            {"accel_b2_sigma", vec3(m.accel.b2_sigma)}};
   Json timeline = Json::array();
   for (const EventRow& e : run.timeline)
     timeline.push_back({{"time_s", e.time_s},
+                        {"sensor", e.sensor},
                         {"kind", e.kind},
                         {"reason", e.reason},
                         {"temperature_c", number(e.temperature_c)},

@@ -15,23 +15,29 @@
 // so that what the orientations seen do not determine keeps its prior value and sigma: one
 // orientation for a year refines only what one orientation can.
 //
-// Bounded memory: rests are kept in Cells cells, one per gravity direction (the 26 directions of
-// a cube's faces, edges and corners) and temperature band; a cell keeps the weighted mean reading
-// and temperature of its rests. Its weight in the solve is capped at the pose floor's (a year on
-// one desk is one well-measured pose, not a million), and ages: halved every half_life_days, so
-// that a slow change is followed and an old orientation does not pin the solution forever. A new
-// cell takes the place of the lightest when all are used.
+// Bounded memory: rests are kept in Cells cells, one per pose (rests within 2 degrees of one
+// direction) and temperature band; a cell keeps the weighted mean reading and temperature of its
+// rests. Its weight in the solve is capped at the pose floor's (a year on one desk is one
+// well-measured pose, not a million), and ages: halved every half_life_days, so that a slow
+// change is followed and an old orientation does not pin the solution forever. When all cells
+// are used, a new pose takes the place of the lightest cell in its direction (of the 26
+// directions of a cube's faces, edges and corners) and band, else of the lightest one.
+// A solution is believed only once the cells check it: they outnumber the parameters they
+// determine and their chi-square fits (nine cells fit the nine unknowns exactly, and the
+// gravity-norm problem then has more than one exact solution).
 //
-// Solves are time-sliced: step() does one row, one factorisation or the sigmas per call.
+// Solves are time-sliced: step() does one row, one factorisation, the covariance or one cell's
+// judgement per call.
 // Acceptance is judged where the rests determine the model: at each cell, the residual each model
 // predicts and its variance (j' C j with the full covariances). The solution replaces the
 // published model when it is no worse at any determined cell and either differs significantly
 // (chi-square over those cells with both variances) or is much better at one (variance at most
 // better_ratio of the published one's: a new direction or temperature band); a rest that disagrees
 // with the published model beyond the gate is held, and a second one after motion or
-// confirm_seconds later that disagrees too confirms a change (a knock): the cells are cleared and
-// the bias's prior widens by change_sigma. Plain data with its arithmetic; fixed memory, no
-// allocation, no exceptions. Header-only.
+// confirm_seconds later that disagrees too confirms a change (a knock): the cells are cleared, and
+// the bias's prior and the published bias's sigma widen by change_sigma until the cells support a
+// new solution. Plain data with its arithmetic; fixed memory, no allocation, no exceptions.
+// Header-only.
 #pragma once
 
 #include <cmath>
@@ -72,7 +78,14 @@ struct AccelFieldSettings {
   // A parameter counts as determined by the rests when its sigma is below this share of its
   // prior sigma.
   Scalar determined_ratio = Scalar(0.5);
-  int iterations = 2;  // Gauss-Newton steps per solve
+  int iterations = 4;  // Gauss-Newton steps per solve
+  // A rest whose mean reading, through the nominal scale, is further than this from gravity
+  // (relative) is no rest of this accelerometer as set up (a wrong scale, a zero reading not
+  // taken off): refused.
+  Scalar max_norm_error = Scalar(0.3);
+  // A solution with an unknown further than this many of its prior sigmas from the prior is not
+  // published (the prior's tolerances are bounds a part meets).
+  Scalar prior_sigmas = Scalar(4);
 };
 
 enum class AccelFieldEvent : std::uint8_t {
@@ -81,6 +94,8 @@ enum class AccelFieldEvent : std::uint8_t {
   kHeld = 2,            // a rest outside the gate: held until a later one confirms or drops it
   kUnconfirmed = 3,     // a held rest that a later agreeing rest dropped
   kChangeDetected = 4,  // two rests apart disagree alike: the cells are cleared, the prior widened
+  kImplausible = 5,     // a rest whose reading is no gravity under the nominal model (|a| off by
+                        // more than max_norm_error): a wrong scale or zero reading, refused
 };
 
 template <typename Scalar, int Cells = 16>
@@ -106,6 +121,7 @@ class AccelField {
     again_ = false;
     candidate_ = false;
     solve_status_ = Status::kNotStarted;
+    solution_ok_ = false;
     has_published_ = false;
     event_reason_ = 0;
     min_c_ = std::numeric_limits<Scalar>::infinity();
@@ -176,6 +192,8 @@ class AccelField {
       return AccelFieldEvent::kNone;
     Pose p;
     p.x = mean_raw / g_counts_;
+    if (!(std::fabs(p.x.norm() - Scalar(1)) <= settings_.max_norm_error))
+      return AccelFieldEvent::kImplausible;
     const Scalar floor2 = Scalar(1) / (Scalar(4) * weight_cap_);
     p.w = Scalar(1) / (Scalar(4) * (mean_variance / (g_counts_ * g_counts_) + floor2));
     p.t = t;
@@ -253,6 +271,7 @@ class AccelField {
           solve_status_ = Status::kIllConditioned;
           return after_solve();
         }
+        solution_ok_ = true;
         judge_ = Judgement{};
         row_ = 0;
         phase_ = Phase::kJudge;
@@ -282,6 +301,8 @@ class AccelField {
   // How the last solve ended (kNotStarted before any; the accumulator's kIllConditioned,
   // kRankDeficient or kNonFiniteInput when it could not solve: the published model stays).
   Status solve_status() const { return solve_status_; }
+  // The cells' chi-square at the last solve (their weighted squared residuals).
+  Scalar fit_chi2() const { return fit_chi2_; }
   // The last solve's parameters and sigmas (normalised, as published_parameters()).
   const Vector& solution() const { return theta_; }
   const Vector& solution_sigmas() const { return sigma_; }
@@ -382,7 +403,8 @@ class AccelField {
            positive(s.curvature_sigma) && positive(s.floor) && positive(s.band_c) &&
            positive(s.half_life_days) && positive(s.change_sigma) &&
            non_negative(s.confirm_seconds) && positive(s.gate_chi2) && positive(s.better_ratio) &&
-           s.better_ratio < Scalar(1) && positive(s.determined_ratio) && s.iterations >= 1;
+           positive(s.max_norm_error) && positive(s.prior_sigmas) && s.better_ratio < Scalar(1) &&
+           positive(s.determined_ratio) && s.iterations >= 1;
   }
 
   static Scalar seconds(std::uint64_t us) { return static_cast<Scalar>(us / 1000u) * Scalar(1e-3); }
@@ -419,10 +441,41 @@ class AccelField {
 
   // The chi-square(1) of a pose against the published model, with the model's variance and the
   // pose's.
+  // The largest of three: against the published model; against the last solution of the cells
+  // (what the rests so far say, before it is published or believed); and against the cell of the
+  // same pose (a rest within 2 degrees in the same band: what it read before, the model carrying
+  // the small difference of direction and temperature). The last two see a step long before a
+  // model is published.
   Scalar disagreement(const Pose& p) const {
     typename Ne::Vector j;
+    Scalar against_model = Scalar(0);
+    if (solution_ok_) {
+      const Scalar es = residual(theta_, p.x, p.t, &j);
+      against_model = es * es / (Scalar(1) / p.w + quadratic(solution_cov_, j));
+    }
     const Scalar e = residual(published_, p.x, p.t, &j);
-    return e * e / (Scalar(1) / p.w + quadratic(published_cov_, j));
+    const Scalar published = e * e / (Scalar(1) / p.w + quadratic(published_cov_, j));
+    if (published > against_model) against_model = published;
+    const std::size_t i = find_cell(p);
+    if (i == n_cells_) return against_model;
+    const Cell& c = cells_[i];
+    typename Ne::Vector jc;
+    const Scalar d = e - residual(published_, c.x, c.t, &jc);
+    const Scalar wc = c.w < weight_cap_ ? c.w : weight_cap_;
+    const Scalar against_cell =
+        d * d / (Scalar(1) / p.w + Scalar(1) / wc + quadratic(published_cov_, j - jc));
+    return against_cell > against_model ? against_cell : against_model;
+  }
+
+  // The cell of a pose's direction (within 2 degrees) and temperature band; n_cells_ if none.
+  std::size_t find_cell(const Pose& p) const {
+    const std::uint8_t b = band(p.t);
+    const Scalar near = Scalar(0.99939);  // cos 2 deg
+    std::size_t i = 0;
+    while (i < n_cells_ &&
+           !(cells_[i].band == b && cells_[i].x.dot(p.x) > near * cells_[i].x.norm() * p.x.norm()))
+      ++i;
+    return i;
   }
 
   // Packed lower triangle of a symmetric kParams x kParams matrix (the accumulator's layout).
@@ -477,22 +530,28 @@ class AccelField {
   }
 
   void take(const Pose& p) {
+    // A cell is one pose: rests within 2 degrees of its direction, in its temperature band (the
+    // norm of a mean of readings apart is not gravity's: 3 degrees apart would read 0.3 mg low).
     const std::uint8_t dir = direction(p.x), b = band(p.t);
-    std::size_t i = 0;
-    while (i < n_cells_ && !(cells_[i].direction == dir && cells_[i].band == b)) ++i;
+    std::size_t i = find_cell(p);
     if (i == n_cells_) {
       if (n_cells_ < kCells) {
         ++n_cells_;
-      } else {  // the lightest cell gives way
+      } else {  // the lightest cell of its direction and band gives way, else the lightest
+        bool same = false;
         i = 0;
-        for (std::size_t k = 1; k < n_cells_; ++k)
-          if (cells_[k].w < cells_[i].w) i = k;
+        for (std::size_t k = 0; k < n_cells_; ++k) {
+          const bool s = cells_[k].direction == dir && cells_[k].band == b;
+          if ((s && !same) || (s == same && cells_[k].w < cells_[i].w)) i = k;
+          same = same || s;
+        }
       }
       cells_[i] = Cell{};
       cells_[i].direction = dir;
       cells_[i].band = b;
       cells_[i].t = p.t;
     }
+    restarted_ = false;
     Cell& c = cells_[i];
     const Scalar share = p.w / (c.w + p.w);
     c.x += share * (p.x - c.x);
@@ -507,7 +566,7 @@ class AccelField {
 
   // Two poses apart that disagree with the published model: a change. The cells (from before
   // it) are cleared, the bias's prior becomes the published model with its sigma widened by
-  // change_sigma, and both poses are taken.
+  // change_sigma, and the later pose is taken.
   void change(const Pose& p) {
     candidate_ = false;
     n_cells_ = 0;
@@ -518,9 +577,17 @@ class AccelField {
       const Scalar s = sigma0_(kBiasX + i);
       sigma0_(kBiasX + i) = std::sqrt(s * s + c * c);
     }
+    prior_sigma_ = sigma0_;  // what the rests determine is judged against the widened prior
+    solution_ok_ = false;    // it described the cells before the change
+    // The published model stays what the device applies until the cells support a new one, with
+    // its bias's sigma widened alike: honest meanwhile, and the rests that follow agree with it.
+    for (int i = 0; i < 3; ++i) {
+      published_cov_[index(kBiasX + i, kBiasX + i)] += c * c;
+      published_sigma_(kBiasX + i) = std::sqrt(published_cov_[index(kBiasX + i, kBiasX + i)]);
+    }
     changed_ = true;
     phase_ = Phase::kIdle;
-    take(candidate_pose_);
+    // The confirming rest only: the held one may be the disturbed end of the event itself.
     take(p);
   }
 
@@ -534,6 +601,7 @@ class AccelField {
   }
 
   void begin_rows() {
+    fit_chi2_ = Scalar(0);
     // Positive definite by construction (the prior's rows): a ratio of ten epsilon guards only
     // against rounding (one orientation leaves a bias and its scale as good as collinear but for
     // the prior, pivots of about 1e-5 of the largest in float).
@@ -547,7 +615,7 @@ class AccelField {
     typename Ne::Vector j;
     const Scalar e = residual(theta_, c.x, c.t, &j);
     const Scalar w = c.w < weight_cap_ ? c.w : weight_cap_;
-    ne_.add(j, e, w);
+    if (ne_.add(j, e, w) == Status::kOk) fit_chi2_ += w * e * e;
   }
 
   // The comparison is made where the rests determine the model: at each cell, the residual each
@@ -575,6 +643,34 @@ class AccelField {
     const int determined = judge_.determined;
     const bool worse = judge_.worse;
     if (determined == 0) return AccelFieldEvent::kNone;
+    // The fit must be checked by the cells before it is believed: the parameters the cells
+    // determine (each unknown's share of information from the data, 1 - sigma^2 / sigma0^2) leave
+    // at least one cell over, and the cells' chi-square is within what that many degrees of
+    // freedom allow (99.9 %). Nine cells fit nine unknowns exactly, and the gravity-norm problem
+    // then has more than one exact solution: a local sigma says nothing of which one it found.
+    Scalar used = Scalar(0);
+    for (int k = 0; k < kParams; ++k) {
+      const Scalar share =
+          Scalar(1) - (sigma_(k) * sigma_(k)) / (prior_sigma_(k) * prior_sigma_(k));
+      used += share > Scalar(0) ? share : Scalar(0);
+    }
+    const Scalar dof = static_cast<Scalar>(n_cells_) - used;
+    if (!(dof >= Scalar(1))) return AccelFieldEvent::kNone;
+    // Nor is a solution believed that the prior calls implausible: an unknown more than
+    // prior_sigmas from it (a few cells in nearly one orientation can be fitted by a bias across
+    // gravity far out, where the norm's curvature makes it look determined).
+    for (int k = 0; k < kParams; ++k)
+      if (!(std::fabs(theta_(k) - theta0_(k)) <= settings_.prior_sigmas * sigma0_(k)))
+        return AccelFieldEvent::kNone;
+    if (fit_chi2_ > dof + Scalar(3.3) * std::sqrt(Scalar(2) * dof) + Scalar(4)) {
+      // A minimum the cells refuse: once per set of cells, start again from the prior.
+      if (!restarted_ && n_cells_ >= static_cast<std::size_t>(kAccelParams + 1)) {
+        restarted_ = true;
+        theta_ = theta0_;
+        again_ = true;
+      }
+      return AccelFieldEvent::kNone;
+    }
     int reason = -1;
     if (changed_) {
       reason = 3;
@@ -612,13 +708,16 @@ class AccelField {
   Scalar min_c_ = std::numeric_limits<Scalar>::infinity();
   Scalar max_c_ = -std::numeric_limits<Scalar>::infinity();
   Vector theta0_ = Vector::Zero(), sigma0_ = Vector::Ones();  // the prior
-  Vector prior_sigma_ = Vector::Ones();  // the prior's sigma at start (what determined means)
+  Vector prior_sigma_ = Vector::Ones();  // the prior's sigma (since start or the last change)
   Vector theta_ = Vector::Zero(), sigma_ = Vector::Ones();  // the solve
   Vector published_ = Vector::Zero(), published_sigma_ = Vector::Ones();
   Scalar published_cov_[kPacked] = {};  // the published model's covariance, packed
   Scalar solution_cov_[kPacked] = {};   // the solution's, while it is judged
   Judgement judge_{};
   bool has_published_ = false, changed_ = false;
+  bool restarted_ = false;       // the solve started again from the prior since the cells changed
+  bool solution_ok_ = false;     // theta_ and solution_cov_ hold a solve's result
+  Scalar fit_chi2_ = Scalar(0);  // the cells' weighted squared residuals at the last solve
   Cell cells_[kCells] = {};
   std::size_t n_cells_ = 0;
   Ne ne_{};

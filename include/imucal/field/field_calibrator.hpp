@@ -17,10 +17,11 @@
 //     (bias_filter.hpp: bias, slope and curvature per axis, a random walk between rests), a
 //     chi-square(3) gate. A piece within the gate is taken into the filter. One outside is held
 //     as a candidate (kHeld; a turn about the vertical looks like a bias inside one rest) and the
-//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later, or
-//     three steady rests across motion over change_seconds, that agree with it confirm a change (a
-//     knock; kChangeDetected: the filter's bias variance grows by change_sigma^2); a piece that
-//     agrees with the filter instead drops it (kRejected, kUnconfirmed).
+//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later, a
+//     steady one after motion in an orientation 30 degrees or more away, or three steady rests
+//     across motion over change_seconds, that agree with it confirm a change (a knock;
+//     kChangeDetected: the filter's bias variance grows by change_sigma^2); a piece that agrees
+//     with the filter instead drops it (kRejected, kUnconfirmed).
 // What the device applies is the *published* bias model, not the filter: the filter's model
 // replaces it (kUpdated) only when the two differ significantly (publish_chi2 on the difference
 // with both variances) and the filter's variance is the smaller, or when the filter's variance is
@@ -117,6 +118,7 @@ enum class FieldReason : std::uint8_t {
   kChange = 5,        // (kUpdated) after a change
   kFirst = 6,         // (kUpdated) the first publication
   kBetter = 7,        // (kUpdated) the filter's variance is a small share of the published one's
+  kImplausible = 8,   // (kRejected, the accelerometer's) its reading is no gravity as set up
 };
 
 inline const char* field_event_name(FieldEventKind k) {
@@ -150,6 +152,8 @@ inline const char* field_reason_name(FieldReason r) {
       return "change";
     case FieldReason::kFirst:
       return "first";
+    case FieldReason::kImplausible:
+      return "implausible";
     default:
       return "better";
   }
@@ -186,10 +190,12 @@ struct FieldCounts {
   std::uint32_t updates = 0;  // publications
   std::uint32_t saves = 0;    // publications saved (mark_saved())
   std::uint32_t events_dropped = 0;
-  // The accelerometer's: rests held outside its gate, changes, publications.
+  // The accelerometer's: rests held outside its gate, changes, publications, rests refused as
+  // implausible.
   std::uint32_t accel_held = 0;
   std::uint32_t accel_changes = 0;
   std::uint32_t accel_updates = 0;
+  std::uint32_t accel_implausible = 0;
 };
 
 template <typename Scalar, int Events = 8>
@@ -488,7 +494,14 @@ class FieldCalibrator {
       if (sigma != nullptr) sigma->setZero();
       return false;
     }
-    return accel_.bias(t, settings_.temperature_margin_c, out, sigma);
+    const bool published = accel_.bias(t, settings_.temperature_margin_c, out, sigma);
+    // While the gyro holds a rest it cannot explain (a knock, until confirmed), the rests do not
+    // reach the accelerometer's model: its sigma covers a knock's step meanwhile.
+    if (sigma != nullptr && candidate_) {
+      const Scalar step = settings_.accel.change_sigma * settings_.accel.accel_per_m_s2;
+      for (int i = 0; i < 3; ++i) (*sigma)(i) = std::sqrt((*sigma)(i) * (*sigma)(i) + step * step);
+    }
+    return published;
   }
   const FieldCounts& counts() const { return counts_; }
   const RestMonitor<Scalar, 2>& monitor() const { return monitor_; }
@@ -712,7 +725,7 @@ class FieldCalibrator {
           ++counts_.changes;
           event(FieldEventKind::kChangeDetected, FieldReason::kNone, p.t, chi2);
           filter_.inflate(change_var());
-          take(candidate_piece_);
+          take(candidate_piece_, false);  // counted as held already
           take(p);
           publish(FieldReason::kChange, p.t, chi2);
           return;
@@ -757,11 +770,17 @@ class FieldCalibrator {
   // held still: not a turn) confirm_seconds after the candidate began, or when it makes three
   // steady rests between motions that agree over change_seconds (a chance agreement of unrelated
   // turns is unlikely; the ramps of one turn are not steady).
+  // A steady piece after motion in another orientation (gravity at least 30 degrees away) that
+  // agrees confirms it too: a turn about the vertical reads as a rate along gravity, so two turns
+  // seen in orientations apart cannot agree, while a bias is the same in every orientation.
   bool confirms(const Piece& p) const {
     if (!p.steady) return false;
     const Scalar held = static_cast<Scalar>(p.mid_us - candidate_first_us_) * Scalar(1e-6);
-    const std::uint32_t groups = candidate_groups_ + (p.group != candidate_piece_.group ? 1u : 0u);
-    return (p.verified && held >= settings_.confirm_seconds) ||
+    const bool moved = p.group != candidate_piece_.group;
+    const std::uint32_t groups = candidate_groups_ + (moved ? 1u : 0u);
+    const Vector3<Scalar>& u = candidate_piece_.acc;
+    const bool turned_over = moved && u.dot(p.acc) < Scalar(0.866) * u.norm() * p.acc.norm();
+    return (p.verified && held >= settings_.confirm_seconds) || turned_over ||
            (groups >= 3u && held >= settings_.change_seconds);
   }
 
@@ -778,9 +797,9 @@ class FieldCalibrator {
                                  settings_.confirm_seconds;
   }
 
-  void take(const Piece& p) {
+  void take(const Piece& p, bool count = true) {
     filter_.update(p.z, p.r, p.t);
-    ++counts_.taken;
+    if (count) ++counts_.taken;
     if (accel_.enabled()) {  // the rests the gyro takes are rests for the accelerometer too
       ++accel_rests_;
       const AccelFieldEvent e = accel_.add(p.acc, p.acc_var, p.t, p.end_us, p.group);
@@ -791,6 +810,11 @@ class FieldCalibrator {
       } else if (e == AccelFieldEvent::kUnconfirmed) {
         event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, p.t, accel_.last_chi2(),
               FieldSensor::kAccel);
+      } else if (e == AccelFieldEvent::kImplausible) {
+        // Once per run of them: a setup that is wrong says so once, not with every rest.
+        if (counts_.accel_implausible++ == 0)
+          event(FieldEventKind::kRejected, FieldReason::kImplausible, p.t, Scalar(0),
+                FieldSensor::kAccel);
       } else if (e == AccelFieldEvent::kChangeDetected) {
         ++counts_.accel_changes;
         event(FieldEventKind::kChangeDetected, FieldReason::kNone, p.t, accel_.last_chi2(),
