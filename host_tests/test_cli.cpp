@@ -1032,6 +1032,27 @@ TEST(CliStream, CountsSaturationAndRate) {
   for (const std::string& f : {csv, json}) std::remove(f.c_str());
 }
 
+// The Xsens recording's files and units, as calibrate and field take them.
+std::vector<std::string> xsens_args(const std::string& dir) {
+  char gyro_lsb[32];
+  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
+  return {dir + "/xsens_acc.mat",
+          dir + "/xsens_gyro.mat",
+          "--accel-unit",
+          "counts",
+          "--accel-lsb-per-g",
+          "4070",
+          "--accel-zero",
+          "32768",
+          "--gyro-unit",
+          "counts",
+          "--gyro-lsb-per-dps",
+          gyro_lsb,
+          "--gravity",
+          "9.81744",
+          "--initial-rest",
+          "40"};
+}
 // The xsens recording through the command, float (device) and double (reference).
 TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
   const std::string dir = test::find_xsens_dir();
@@ -1041,31 +1062,12 @@ TEST(CliXsens, CalibratesTheRecordingFloatAndDoubleAgree) {
 #endif
     GTEST_SKIP() << "xsens recording not found (set IMUCAL_XSENS_DIR)";
   }
-  char gyro_lsb[32];
-  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
   Json r[2];
   for (int d = 0; d < 2; ++d) {
     const std::string out = temp_path(d ? "xsens_double.json" : "xsens_float.json");
     const std::string svg = temp_path("xsens_float.svg");
-    std::vector<std::string> args = {dir + "/xsens_acc.mat",
-                                     dir + "/xsens_gyro.mat",
-                                     "--accel-unit",
-                                     "counts",
-                                     "--accel-lsb-per-g",
-                                     "4070",
-                                     "--accel-zero",
-                                     "32768",
-                                     "--gyro-unit",
-                                     "counts",
-                                     "--gyro-lsb-per-dps",
-                                     gyro_lsb,
-                                     "--gravity",
-                                     "9.81744",
-                                     "--initial-rest",
-                                     "40",
-                                     "--json",
-                                     out,
-                                     "--quiet"};
+    std::vector<std::string> args = xsens_args(dir);
+    args.insert(args.end(), {"--json", out, "--quiet"});
     if (d) args.push_back("--double");
     if (!d) args.insert(args.end(), {"--svg", svg});
     testing::internal::CaptureStdout();
@@ -2891,13 +2893,7 @@ TEST(CliField, NoiseFromOptions) {
 // The xsens recording: the same bias as calibrate's, within 3 combined sigma.
 TEST(CliXsens, FieldCalibratorAgreesWithCalibrate) {
   IMUCAL_XSENS_DIR_OR_SKIP(dir);
-  char gyro_lsb[32];
-  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
-  const FieldCheck r =
-      check_field({dir + "/xsens_acc.mat", dir + "/xsens_gyro.mat", "--accel-unit", "counts",
-                   "--accel-lsb-per-g", "4070", "--accel-zero", "32768", "--gyro-unit", "counts",
-                   "--gyro-lsb-per-dps", gyro_lsb, "--gravity", "9.81744", "--initial-rest", "40"},
-                  {"--gyro-zero", "32768"}, "xsens");
+  const FieldCheck r = check_field(xsens_args(dir), {"--gyro-zero", "32768"}, "xsens");
   std::printf("%s", r.summary.c_str());
   EXPECT_EQ(r.field["input"]["samples"], 51175);
 }
@@ -2912,24 +2908,7 @@ TEST(CliXsens, FieldCalibratorAgreesWithCalibrate) {
 // field calibrator may report that as a change even from the right prior, and its sigma says so.
 TEST(CliXsens, FieldFromAWrongPriorConvergesToCalibrate) {
   IMUCAL_XSENS_DIR_OR_SKIP(dir);
-  char gyro_lsb[32];
-  std::snprintf(gyro_lsb, sizeof gyro_lsb, "%.9g", test::kXsensCountsPerRadS * kPi / 180.0);
-  const std::vector<std::string> input = {dir + "/xsens_acc.mat",
-                                          dir + "/xsens_gyro.mat",
-                                          "--accel-unit",
-                                          "counts",
-                                          "--accel-lsb-per-g",
-                                          "4070",
-                                          "--accel-zero",
-                                          "32768",
-                                          "--gyro-unit",
-                                          "counts",
-                                          "--gyro-lsb-per-dps",
-                                          gyro_lsb,
-                                          "--gravity",
-                                          "9.81744",
-                                          "--initial-rest",
-                                          "40"};
+  const std::vector<std::string> input = xsens_args(dir);
   const std::string rec = temp_path("xsens_prior.bin"), wrong = temp_path("xsens_wrong.bin"),
                     cj = temp_path("xsens_prior_cal.json");
   std::vector<std::string> c = input;
