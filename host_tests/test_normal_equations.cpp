@@ -78,6 +78,15 @@ TEST(NormalEquations, MatchesBatchLeastSquares) {
   ASSERT_EQ(ne.covariance(cov), Status::kOk);
   const Eigen::Matrix<double, kN, kN> expected_cov = ne.weighted_sse() / (kRows - kN) * h.inverse();
   EXPECT_LT((cov - expected_cov).norm(), 1e-10 * expected_cov.norm());
+  // One column at a time, as a caller that spreads the covariance over calls takes it.
+  for (int c = 0; c < kN; ++c) {
+    Vec column = Vec::Zero();
+    ASSERT_EQ(ne.inverse_column(c, -1.0, column), Status::kOk);
+    EXPECT_LT((column - expected_cov.col(c)).norm(), 1e-10 * expected_cov.norm()) << c;
+  }
+  Vec untouched = Vec::Constant(7.0);
+  EXPECT_EQ(ne.inverse_column(kN, -1.0, untouched), Status::kInvalidArgument);
+  EXPECT_EQ(untouched, Vec::Constant(7.0));
   ASSERT_EQ(ne.solve_damped(0.0, delta), Status::kOk);
   const double f_after = (sw.asDiagonal() * (b.e + b.j * delta)).squaredNorm();
   EXPECT_NEAR(ne.predicted_decrease(delta), ne.weighted_sse() - f_after, 1e-10);
@@ -150,6 +159,9 @@ TEST(NormalEquations, SingularSystemsGiveAStatusNotNaN) {
   EXPECT_EQ(delta, sentinel);
   Eigen::Matrix<double, kN, kN> cov = Eigen::Matrix<double, kN, kN>::Zero();
   EXPECT_EQ(zero_column.covariance(cov), Status::kRankDeficient);
+  Vec column = sentinel;
+  EXPECT_EQ(zero_column.inverse_column(0, -1.0, column), Status::kRankDeficient);
+  EXPECT_EQ(column, sentinel);
 
   // Two parameters that always move together.
   NE collinear;

@@ -86,6 +86,8 @@ struct AccelFieldSettings {
   // A solution with an unknown further than this many of its prior sigmas from the prior is not
   // published (the prior's tolerances are bounds a part meets).
   Scalar prior_sigmas = Scalar(4);
+  // Rests of poses already in the cells are solved for at most this often (s); a new pose at once.
+  Scalar resolve_seconds = Scalar(600);
 };
 
 enum class AccelFieldEvent : std::uint8_t {
@@ -131,6 +133,8 @@ class AccelField {
     g_counts_ = settings.accel_per_m_s2 * settings.gravity;
     const Scalar floor = settings.floor / settings.gravity;
     weight_cap_ = Scalar(1) / (Scalar(4) * floor * floor);
+    resolve_us_ = static_cast<std::uint64_t>(settings.resolve_seconds * Scalar(1e6));
+    solved_us_ = 0;
     forget_hour_ = std::exp2(Scalar(-1) / (Scalar(24) * settings.half_life_days));
     reference_c_ = std::isfinite(reference_c) ? reference_c : Scalar(25);
     // The nominal model, normalised: unit scales, no misalignment, no bias.
@@ -254,15 +258,20 @@ class AccelField {
           begin_rows();
         } else {
           phase_ = Phase::kSigma;
+          row_ = 0;
         }
         return AccelFieldEvent::kNone;
       }
       case Phase::kSigma: {
-        phase_ = Phase::kIdle;
-        solve_status_ = ne_.inverse_columns(Scalar(1), [&](int c, const typename Ne::Vector& col) {
-          for (int r = c; r < kParams; ++r) solution_cov_[index(r, c)] = col(r);
-        });
+        // One column of the covariance per slice (a factorisation and a solve each: the largest
+        // slice stays that of a Gauss-Newton step).
+        const int c = static_cast<int>(row_);
+        typename Ne::Vector col;
+        solve_status_ = ne_.inverse_column(c, Scalar(1), col);
         if (solve_status_ != Status::kOk) return after_solve();
+        for (int r = c; r < kParams; ++r) solution_cov_[index(r, c)] = col(r);
+        if (++row_ < static_cast<std::size_t>(kParams)) return AccelFieldEvent::kNone;
+        phase_ = Phase::kIdle;
         for (int k = 0; k < kParams; ++k) {
           const Scalar v = solution_cov_[index(k, k)];
           sigma_(k) = std::sqrt(v > Scalar(0) ? v : Scalar(0));
@@ -403,7 +412,8 @@ class AccelField {
            positive(s.curvature_sigma) && positive(s.floor) && positive(s.band_c) &&
            positive(s.half_life_days) && positive(s.change_sigma) &&
            non_negative(s.confirm_seconds) && positive(s.gate_chi2) && positive(s.better_ratio) &&
-           positive(s.max_norm_error) && positive(s.prior_sigmas) && s.better_ratio < Scalar(1) &&
+           positive(s.max_norm_error) && positive(s.prior_sigmas) &&
+           non_negative(s.resolve_seconds) && s.better_ratio < Scalar(1) &&
            positive(s.determined_ratio) && s.iterations >= 1;
   }
 
@@ -534,7 +544,8 @@ class AccelField {
     // norm of a mean of readings apart is not gravity's: 3 degrees apart would read 0.3 mg low).
     const std::uint8_t dir = direction(p.x), b = band(p.t);
     std::size_t i = find_cell(p);
-    if (i == n_cells_) {
+    const bool new_cell = i == n_cells_;
+    if (new_cell) {
       if (n_cells_ < kCells) {
         ++n_cells_;
       } else {  // the lightest cell of its direction and band gives way, else the lightest
@@ -561,7 +572,12 @@ class AccelField {
       if (p.t < min_c_) min_c_ = p.t;
       if (p.t > max_c_) max_c_ = p.t;
     }
-    begin_solve();
+    // A new pose is solved for at once; more rests of the poses already there (a desk for hours)
+    // move the solution little, and are solved for every resolve_seconds.
+    if (new_cell || changed_ || p.time_us - solved_us_ >= resolve_us_) {
+      solved_us_ = p.time_us;
+      begin_solve();
+    }
   }
 
   // Two poses apart that disagree with the published model: a change. The cells (from before
@@ -715,9 +731,12 @@ class AccelField {
   Scalar solution_cov_[kPacked] = {};   // the solution's, while it is judged
   Judgement judge_{};
   bool has_published_ = false, changed_ = false;
-  bool restarted_ = false;       // the solve started again from the prior since the cells changed
-  bool solution_ok_ = false;     // theta_ and solution_cov_ hold a solve's result
-  Scalar fit_chi2_ = Scalar(0);  // the cells' weighted squared residuals at the last solve
+  bool restarted_ = false;    // the solve started again from the prior since the cells changed
+  bool solution_ok_ = false;  // theta_ and solution_cov_ hold a solve's result
+  Scalar fit_chi2_ = Scalar(0);
+  std::uint64_t solved_us_ = 0,
+                resolve_us_ = 0;  // the last solve's rest, and the interval  // the cells' weighted
+                                  // squared residuals at the last solve
   Cell cells_[kCells] = {};
   std::size_t n_cells_ = 0;
   Ne ne_{};

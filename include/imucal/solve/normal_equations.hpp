@@ -224,6 +224,23 @@ class NormalEquations {
     return for_each_inverse_column(variance, f);
   }
 
+  // Column c of variance * H^-1 (variance < 0: f / (m - n)) alone: a factorisation and one solve,
+  // for a caller that spreads the covariance over several calls.
+  Status inverse_column(int c, Scalar variance, Vector& out) const {
+    if (c < 0 || c >= n_) return Status::kInvalidArgument;
+    Vector result = Vector::Zero();
+    const Status s = for_each_inverse_column(
+        variance,
+        [&](int k, const Vector& column) {
+          if (k == c) result = column;
+        },
+        c);
+    if (s != Status::kOk) return s;
+    if (!all_finite(result)) return Status::kIllConditioned;
+    out = result;
+    return Status::kOk;
+  }
+
   // sqrt(diag(Cov)) without forming the covariance: what a device needs, with less stack.
   // variance < 0: Cov = f / (m - n) H^-1 (the noise taken from the fit's own scatter); otherwise
   // Cov = variance H^-1 (rows weighted by a known noise model: variance 1 when it is exact).
@@ -260,9 +277,9 @@ class NormalEquations {
   }
 
   // Calls f(c, column c of variance H^-1) for each c < size() (variance < 0: f/(m-n)), one column
-  // at a time.
+  // at a time; or for column `only` alone (0 or more).
   template <class F>
-  Status for_each_inverse_column(Scalar variance, F f) const {
+  Status for_each_inverse_column(Scalar variance, F f, int only = -1) const {
     if (rows_ <= n_) return Status::kTooFewResiduals;
     if (!std::isfinite(variance)) return Status::kInvalidArgument;
     Vector scale;
@@ -272,7 +289,7 @@ class NormalEquations {
         detail::ne_factor(h_, rows_, n_, Scalar(0), scale.data(), l, d.data(), min_ratio());
     if (s != Status::kOk) return s;
     if (variance < Scalar(0)) variance = f_ / Scalar(rows_ - n_);
-    for (int c = 0; c < n_; ++c) {
+    for (int c = only < 0 ? 0 : only; c < (only < 0 ? n_ : only + 1); ++c) {
       Vector column = Vector::Zero();
       column(c) = Scalar(1);
       detail::ldlt_solve(l, d.data(), n_, column.data());
