@@ -23,21 +23,23 @@
 // are used, a new pose takes the place of the lightest cell in its direction (of the 26
 // directions of a cube's faces, edges and corners) and band, else of the lightest one.
 // A solution is believed only once the cells check it: they outnumber the parameters they
-// determine and their chi-square fits (nine cells fit the nine unknowns exactly, and the
-// gravity-norm problem then has more than one exact solution).
+// determine, their chi-square fits, and no unknown is more than prior_sigmas from the prior (nine
+// cells fit the nine unknowns exactly, and the gravity-norm problem then has more than one exact
+// solution; a few cells in one orientation can be fitted by a bias across gravity far out).
 //
-// Solves are time-sliced: step() does one row, one factorisation, the covariance or one cell's
-// judgement per call.
+// Solves are time-sliced: step() does one row, one factorisation, one covariance column or one
+// cell's judgement per call. A new pose is solved for at once, more rests of known poses every
+// resolve_seconds.
 // Acceptance is judged where the rests determine the model: at each cell, the residual each model
 // predicts and its variance (j' C j with the full covariances). The solution replaces the
 // published model when it is no worse at any determined cell and either differs significantly
 // (chi-square over those cells with both variances) or is much better at one (variance at most
-// better_ratio of the published one's: a new direction or temperature band); a rest that disagrees
-// with the published model beyond the gate is held, and a second one after motion or
-// confirm_seconds later that disagrees too confirms a change (a knock): the cells are cleared, and
-// the bias's prior and the published bias's sigma widen by change_sigma until the cells support a
-// new solution. Plain data with its arithmetic; fixed memory, no allocation, no exceptions.
-// Header-only.
+// better_ratio of the published one's: a new direction or temperature band).
+// A rest that disagrees beyond the gate with the published model, the last solution or its own
+// pose's cell is held, and a second one after motion or confirm_seconds later that disagrees too
+// confirms a change (a knock): the cells are cleared, and the bias's prior and the published
+// bias's sigma widen by change_sigma until the cells support a new solution.
+// Plain data with its arithmetic; fixed memory, no allocation, no exceptions. Header-only.
 #pragma once
 
 #include <cmath>
