@@ -12,6 +12,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "calibrate.hpp"
@@ -343,6 +344,11 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
   return run.published ? 0 : 1;
 }
 
+// The accelerometer's mg per raw unit (NaN without its model).
+double mg_per_raw(const FieldRun& run, const Options& o) {
+  return run.accel_enabled ? 1000.0 / (run.accel_per_m_s2 * o.gravity) : kNaN;
+}
+
 std::string vec_text(const double* v, const char* format) {
   return "[" + fmt(format, v[0]) + ", " + fmt(format, v[1]) + ", " + fmt(format, v[2]) + "]";
 }
@@ -445,8 +451,8 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
   row("b1", g.b1, g.b1_sigma, "% .4g", "/degC");
   row("b2", g.b2, g.b2_sigma, "% .4g", "/degC^2");
 
+  const double to_mg = mg_per_raw(run, o);
   if (run.accel_enabled) {
-    const double to_mg = 1000.0 / (run.accel_per_m_s2 * o.gravity);  // mg per raw unit
     const double mg[3] = {run.accel_bias[0] * to_mg, run.accel_bias[1] * to_mg,
                           run.accel_bias[2] * to_mg};
     const double smg[3] = {run.accel_sigma[0] * to_mg, run.accel_sigma[1] * to_mg,
@@ -468,7 +474,6 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
                    c.accel_implausible);
   }
 
-  const double to_mg = run.accel_enabled ? 1000.0 / (run.accel_per_m_s2 * o.gravity) : std::nan("");
   std::fprintf(out, "\ntimeline (%s; t in s since the first sample; the sensor's bias after it)\n",
                plural(run.events, "event", "events").c_str());
   if (run.events == 0) return;
@@ -489,6 +494,20 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 Json vec3(const double* v) { return Json::array({number(v[0]), number(v[1]), number(v[2])}); }
 Json vec3(const Vector3<float>& v) { return vec3(array3(v).v); }
+
+// A sensor's published bias in the JSON: published or not, its unit and convention, the value and
+// sigma (one for the three axes, or one each), and the temperature it is at.
+Json bias_json(bool published, const char* unit, const double* value, Json sigma,
+               double temperature_c) {
+  Json b;
+  b["published"] = published;
+  b["unit"] = unit;
+  b["convention"] = "added to the raw reading";
+  b["value"] = vec3(value);
+  b["sigma"] = std::move(sigma);
+  b["temperature_c"] = number(temperature_c);
+  return b;
+}
 
 std::string field_json(const FieldRun& run, const Options& o) {
   const Run& in = run.input;
@@ -545,16 +564,11 @@ std::string field_json(const FieldRun& run, const Options& o) {
                  {"accel_changes", c.accel_changes},
                  {"accel_updates", c.accel_updates},
                  {"accel_implausible", c.accel_implausible}};
-  Json bias;
-  bias["published"] = run.published;
-  bias["unit"] = gyro_unit_name(o.gyro_unit);
-  bias["convention"] = "added to the raw reading";
-  bias["value"] = vec3(run.bias);
-  bias["sigma"] = number(run.sigma);
+  Json bias = bias_json(run.published, gyro_unit_name(o.gyro_unit), run.bias, number(run.sigma),
+                        run.temperature_c);
   const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
   bias["value_dps"] = vec3(dps);
   bias["sigma_dps"] = number(run.sigma * to_dps);
-  bias["temperature_c"] = number(run.temperature_c);
   j["gyro_bias"] = bias;
   j["filter_bias"] = {{"value", vec3(run.filter_bias)}, {"sigma", number(run.filter_sigma)}};
   if (std::isfinite(o.at_temperature)) {
@@ -566,13 +580,8 @@ std::string field_json(const FieldRun& run, const Options& o) {
                            {"sigma", number(run.filter_at_sigma)}};
   }
   if (run.accel_enabled) {
-    Json a;
-    a["published"] = run.accel_published;
-    a["unit"] = accel_unit_name(o.accel_unit);
-    a["convention"] = "added to the raw reading";
-    a["value"] = vec3(run.accel_bias);
-    a["sigma"] = vec3(run.accel_sigma);
-    a["temperature_c"] = number(run.temperature_c);
+    Json a = bias_json(run.accel_published, accel_unit_name(o.accel_unit), run.accel_bias,
+                       vec3(run.accel_sigma), run.temperature_c);
     Json params, sig;
     for (int k = 0; k < kAccelParams; ++k) {
       params[kAccelParamNames[k]] = number(static_cast<double>(run.accel.params(k)));

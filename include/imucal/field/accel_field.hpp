@@ -47,6 +47,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "imucal/field/bias_filter.hpp"
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/calibration.hpp"
 #include "imucal/models/temperature_model.hpp"
@@ -328,7 +329,7 @@ class AccelField {
           (published_.template segment<3>(kBiasX) + d * published_.template segment<3>(kSlopeX) +
            d2 * published_.template segment<3>(kCurvatureX));
     if (sigma != nullptr) {  // the variance at t itself (it grows beyond the range)
-      const Scalar u = std::isnan(t) ? Scalar(0) : t - reference_c_;
+      const Scalar u = offset(t);
       for (int i = 0; i < 3; ++i) {
         const int k[3] = {kBiasX + i, kSlopeX + i, kCurvatureX + i};
         const Scalar h[3] = {Scalar(1), u, u * u};
@@ -422,9 +423,7 @@ class AccelField {
   static Scalar seconds(std::uint64_t us) { return static_cast<Scalar>(us / 1000u) * Scalar(1e-3); }
 
   Scalar clamped_offset(Scalar t, Scalar margin) const {
-    if (std::isnan(t) || !seen_temperature()) return Scalar(0);
-    const Scalar lo = min_c_ - margin, hi = max_c_ + margin;
-    return (t < lo ? lo : (t > hi ? hi : t)) - reference_c_;
+    return clamped_temperature_offset(t, reference_c_, min_c_, max_c_, margin);
   }
 
   // The nine model parameters with the bias at temperature t, and d = t - T0.
@@ -435,7 +434,7 @@ class AccelField {
     return p;
   }
 
-  Scalar offset(Scalar t) const { return std::isnan(t) ? Scalar(0) : t - reference_c_; }
+  Scalar offset(Scalar t) const { return temperature_offset(t, reference_c_); }
 
   // The residual of x at temperature t and its Jacobian row over all the unknowns.
   Scalar residual(const Vector& theta, const Vector3<Scalar>& x, Scalar t,

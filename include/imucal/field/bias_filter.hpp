@@ -27,6 +27,21 @@
 
 namespace imucal {
 
+// T - T0 for a model's measurements: 0 without a temperature (NaN).
+template <typename Scalar>
+Scalar temperature_offset(Scalar t, Scalar t0) {
+  return std::isnan(t) ? Scalar(0) : t - t0;
+}
+
+// T - T0 for evaluating a model: T clamped to the temperatures it saw [lo, hi] widened by margin
+// (0 without a temperature, or before any was seen: lo > hi).
+template <typename Scalar>
+Scalar clamped_temperature_offset(Scalar t, Scalar t0, Scalar lo, Scalar hi, Scalar margin) {
+  if (std::isnan(t) || !(lo <= hi)) return Scalar(0);
+  const Scalar a = lo - margin, b = hi + margin;
+  return (t < a ? a : (t > b ? b : t)) - t0;
+}
+
 template <typename Scalar>
 struct BiasFilter {
   Vector3<Scalar> c = Vector3<Scalar>::Zero();  // bias at reference_c (added, raw units)
@@ -59,13 +74,11 @@ struct BiasFilter {
   bool seen_temperature() const { return min_c <= max_c; }
 
   // T - T0 for the measurement model (0 without a temperature).
-  Scalar offset(Scalar t) const { return std::isnan(t) ? Scalar(0) : t - reference_c; }
+  Scalar offset(Scalar t) const { return temperature_offset(t, reference_c); }
 
   // T - T0 for evaluating the model: clamped to the temperatures seen, widened by margin.
   Scalar clamped_offset(Scalar t, Scalar margin) const {
-    if (std::isnan(t) || !seen_temperature()) return Scalar(0);
-    const Scalar lo = min_c - margin, hi = max_c + margin;
-    return (t < lo ? lo : (t > hi ? hi : t)) - reference_c;
+    return clamped_temperature_offset(t, reference_c, min_c, max_c, margin);
   }
 
   // The random walk over dt seconds.
