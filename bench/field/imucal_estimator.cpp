@@ -3,11 +3,13 @@
 // as a firmware would run it: every frame of 16-bit counts through add_raw() with the latest
 // temperature, from the nominal prior (no stored calibration), set up from what the device's
 // sheet says (the nominal gyro scale, the datasheet noise densities). What it would apply each
-// second: the published bias models (gyro, accelerometer) at the current temperature, with their
-// sigmas.
+// second: the published bias models (gyro, accelerometer) at the current temperature and the
+// magnetometer's hard iron, with their sigmas.
 // The bias it publishes is ADDED to the counts; the bench's convention is an SI offset
-// subtracted from the nominally scaled reading: -s_g * b (-s_a * b for the accelerometer).
+// subtracted from the nominally scaled reading: -s_g * b (-s_a * b for the accelerometer, -s_m * h
+// for the magnetometer).
 #include <cmath>
+#include <cstdint>
 #include <memory>
 
 #include "estimator.hpp"
@@ -20,7 +22,9 @@ namespace {
 class ImucalEstimator final : public Estimator {
  public:
   explicit ImucalEstimator(const sim::DeviceSheet& sheet)
-      : scale_(sheet.gyro_rad_s_per_count), accel_scale_(sheet.accel_m_s2_per_count) {
+      : scale_(sheet.gyro_rad_s_per_count),
+        accel_scale_(sheet.accel_m_s2_per_count),
+        mag_scale_(sheet.mag_ut_per_count) {
     field_.start(sim::field_settings(sheet));
   }
 
@@ -44,17 +48,28 @@ class ImucalEstimator final : public Estimator {
     e.gyro_bias.has_sigma = true;
     e.gyro_bias.sigma.setConstant(scale_ * static_cast<double>(sigma));
     e.gyro_bias.updates = field_.counts().updates;
-    Vector3<float> a, sa;
-    e.accel_bias.valid = field_.accel_bias(a, &sa);
-    e.accel_bias.value = -accel_scale_ * a.cast<double>();
-    e.accel_bias.has_sigma = true;
-    e.accel_bias.sigma = accel_scale_ * sa.cast<double>();
-    e.accel_bias.updates = field_.counts().accel_updates;
+    Vector3<float> v, sv;
+    const bool accel = field_.accel_bias(v, &sv);
+    e.accel_bias = per_axis(accel, v, sv, accel_scale_, field_.counts().accel_updates);
+    const bool mag = field_.mag_hard_iron(v, &sv);
+    e.hard_iron = per_axis(mag, v, sv, mag_scale_, field_.counts().mag_updates);
     return e;
   }
 
  private:
-  double scale_, accel_scale_;
+  // A bias with a sigma per axis (raw, added) in the bench's convention.
+  static Estimate3 per_axis(bool valid, const Vector3<float>& value, const Vector3<float>& sigma,
+                            double scale, std::uint64_t updates) {
+    Estimate3 out;
+    out.valid = valid;
+    out.value = -scale * value.cast<double>();
+    out.has_sigma = true;
+    out.sigma = scale * sigma.cast<double>();
+    out.updates = updates;
+    return out;
+  }
+
+  double scale_, accel_scale_, mag_scale_;
   FieldCalibrator<float> field_;
 };
 

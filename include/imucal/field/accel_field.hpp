@@ -82,10 +82,14 @@ struct AccelFieldSettings {
   // prior sigma.
   Scalar determined_ratio = Scalar(0.5);
   int iterations = 4;  // Gauss-Newton steps per solve
-  // A rest whose mean reading, through the nominal scale, is further than this from gravity
-  // (relative) is no rest of this accelerometer as set up (a wrong scale, a zero reading not
-  // taken off): refused.
+  // A rest whose mean reading, through the published model, is further than this from gravity
+  // (relative; plus three times the published bias's sigma, as a norm) is no rest of this
+  // accelerometer as set up (a wrong scale, a zero reading not taken off): refused.
   Scalar max_norm_error = Scalar(0.3);
+  // The cells must outnumber the parameters they determine by this many before a solution is
+  // believed (more where the prior is far from the truth and the problem far from linear: a
+  // magnetometer's hard iron, where a few directions are fitted as well by a mirrored centre).
+  Scalar min_dof = Scalar(1);
   // A solution with an unknown further than this many of its prior sigmas from the prior is not
   // published (the prior's tolerances are bounds a part meets).
   Scalar prior_sigmas = Scalar(4);
@@ -99,8 +103,9 @@ enum class AccelFieldEvent : std::uint8_t {
   kHeld = 2,            // a rest outside the gate: held until a later one confirms or drops it
   kUnconfirmed = 3,     // a held rest that a later agreeing rest dropped
   kChangeDetected = 4,  // two rests apart disagree alike: the cells are cleared, the prior widened
-  kImplausible = 5,     // a rest whose reading is no gravity under the nominal model (|a| off by
-                        // more than max_norm_error): a wrong scale or zero reading, refused
+  kImplausible = 5,     // a rest whose reading is no gravity under the published model (|a| off
+                        // by more than max_norm_error and the bias's sigma): a wrong scale or
+                        // zero reading, refused
 };
 
 template <typename Scalar, int Cells = 16>
@@ -134,6 +139,8 @@ class AccelField {
     aged_us_ = 0;
     if (!valid_) return settings.enabled ? Status::kInvalidArgument : Status::kOk;
     g_counts_ = settings.accel_per_m_s2 * settings.gravity;
+    change2_ =
+        (settings.change_sigma / settings.gravity) * (settings.change_sigma / settings.gravity);
     const Scalar floor = settings.floor / settings.gravity;
     weight_cap_ = Scalar(1) / (Scalar(4) * floor * floor);
     resolve_us_ = static_cast<std::uint64_t>(settings.resolve_seconds * Scalar(1e6));
@@ -193,13 +200,20 @@ class AccelField {
   // One rest piece: its mean reading (raw), the variance of that mean per axis (raw^2), its
   // temperature (NaN: none), when it ended (elapsed microseconds) and
   // its group (rests between two motions share one). Returns what the piece did (kNone: taken).
+  // other_chi2: a disagreement with the published model the caller measured otherwise (the
+  // magnetometer's dip against gravity), judged with the piece's own.
   AccelFieldEvent add(const Vector3<Scalar>& mean_raw, Scalar mean_variance, Scalar t,
-                      std::uint64_t time_us, std::uint32_t group) {
+                      std::uint64_t time_us, std::uint32_t group, Scalar other_chi2 = Scalar(0)) {
     if (!valid_ || !all_finite(mean_raw) || !std::isfinite(mean_variance))
       return AccelFieldEvent::kNone;
     Pose p;
     p.x = mean_raw / g_counts_;
-    if (!(std::fabs(p.x.norm() - Scalar(1)) <= settings_.max_norm_error))
+    // Through the published model, allowing for its bias's sigma (a magnetometer's hard iron is
+    // as large as the field until it is known).
+    const Scalar norm2 = Scalar(1) - residual(published_, p.x, t, nullptr);
+    const Scalar allowance =
+        settings_.max_norm_error + Scalar(3) * published_sigma_.template segment<3>(kBiasX).norm();
+    if (!(std::fabs(std::sqrt(norm2 > Scalar(0) ? norm2 : Scalar(0)) - Scalar(1)) <= allowance))
       return AccelFieldEvent::kImplausible;
     const Scalar floor2 = Scalar(1) / (Scalar(4) * weight_cap_);
     p.w = Scalar(1) / (Scalar(4) * (mean_variance / (g_counts_ * g_counts_) + floor2));
@@ -208,7 +222,8 @@ class AccelField {
     p.group = group;
     age(time_us);
     // Against the published model: a rest far outside is held until another confirms it.
-    const Scalar chi2 = disagreement(p);
+    Scalar chi2 = disagreement(p);
+    if (other_chi2 > chi2) chi2 = other_chi2;
     last_chi2_ = chi2;
     if (chi2 > settings_.gate_chi2) {
       if (candidate_ && (group != candidate_pose_.group ||
@@ -304,6 +319,16 @@ class AccelField {
   }
 
   bool busy() const { return phase_ != Phase::kIdle; }
+  // Every cell is in use.
+  bool full() const { return n_cells_ == kCells; }
+  // A cell holds a reading in the direction of this one (of the 26 directions of a cube's faces,
+  // edges and corners; raw).
+  bool covers(const Vector3<Scalar>& mean_raw) const {
+    const std::uint8_t dir = direction(mean_raw);
+    for (std::size_t i = 0; i < n_cells_; ++i)
+      if (cells_[i].direction == dir) return true;
+    return false;
+  }
   bool enabled() const { return valid_; }
   bool published() const { return has_published_; }
   std::size_t cells() const { return n_cells_; }
@@ -320,8 +345,8 @@ class AccelField {
   const Vector& solution_sigmas() const { return sigma_; }
 
   // The bias the device applies at temperature t (raw, added; NaN: at the reference), the model
-  // clamped to the temperatures seen plus margin, and its sigma per axis. False before the first
-  // publication (then the prior's).
+  // clamped to the temperatures seen plus margin, and its sigma per axis (widened by change_sigma
+  // while a rest that disagrees is held). False before the first publication (then the prior's).
   bool bias(Scalar t, Scalar margin, Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr) const {
     const Scalar d = clamped_offset(t, margin);
     const Scalar d2 = d * d;
@@ -336,6 +361,9 @@ class AccelField {
         Scalar v = Scalar(0);
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) v += h[a] * h[b] * published_cov_[index(k[a], k[b])];
+        // While a rest that disagrees is held (a change, until confirmed or dropped), the
+        // sigma covers a change's step.
+        if (candidate_) v += change2_;
         (*sigma)(i) = g_counts_ * std::sqrt(v > Scalar(0) ? v : Scalar(0));
       }
     }
@@ -417,7 +445,8 @@ class AccelField {
            non_negative(s.confirm_seconds) && positive(s.gate_chi2) && positive(s.better_ratio) &&
            positive(s.max_norm_error) && positive(s.prior_sigmas) &&
            non_negative(s.resolve_seconds) && s.better_ratio < Scalar(1) &&
-           positive(s.determined_ratio) && s.iterations >= 1;
+           positive(s.determined_ratio) && s.iterations >= 1 && std::isfinite(s.min_dof) &&
+           s.min_dof >= Scalar(1);
   }
 
   static Scalar seconds(std::uint64_t us) { return static_cast<Scalar>(us / 1000u) * Scalar(1e-3); }
@@ -462,10 +491,12 @@ class AccelField {
     Scalar against_model = Scalar(0);
     if (solution_ok_) {
       const Scalar es = residual(theta_, p.x, p.t, &j);
-      against_model = es * es / (Scalar(1) / p.w + quadratic(solution_cov_, j));
+      against_model =
+          es * es / (Scalar(1) / p.w + quadratic(solution_cov_, j) + curvature(solution_cov_));
     }
     const Scalar e = residual(published_, p.x, p.t, &j);
-    const Scalar published = e * e / (Scalar(1) / p.w + quadratic(published_cov_, j));
+    const Scalar published =
+        e * e / (Scalar(1) / p.w + quadratic(published_cov_, j) + curvature(published_cov_));
     if (published > against_model) against_model = published;
     const std::size_t i = find_cell(p);
     if (i == n_cells_) return against_model;
@@ -503,6 +534,16 @@ class AccelField {
       for (int r = col + 1; r < kParams; ++r) sum += Scalar(2) * j(r) * j(col) * c[index(r, col)];
     }
     return sum;
+  }
+  // The residual's variance beyond j' C j from its curvature in the bias (e = 1 - |x + b|^2 is
+  // quadratic in b: 2 tr((C_bb)^2) more): what a linear prediction misses when the bias is as
+  // uncertain as the reading is large (a magnetometer's hard iron before it is known). The
+  // difference of two readings' residuals is linear in b, and has none.
+  static Scalar curvature(const Scalar* c) {
+    Scalar sum = Scalar(0);
+    for (int r = kBiasX; r < kBiasX + 3; ++r)
+      for (int k = kBiasX; k < kBiasX + 3; ++k) sum += c[index(r, k)] * c[index(r, k)];
+    return Scalar(2) * sum;
   }
   Scalar prior_quadratic(const typename Ne::Vector& j) const {
     Scalar sum = Scalar(0);
@@ -672,7 +713,7 @@ class AccelField {
       used += share > Scalar(0) ? share : Scalar(0);
     }
     const Scalar dof = static_cast<Scalar>(n_cells_) - used;
-    if (!(dof >= Scalar(1))) return AccelFieldEvent::kNone;
+    if (!(dof >= settings_.min_dof)) return AccelFieldEvent::kNone;
     // Nor is a solution believed that the prior calls implausible: an unknown more than
     // prior_sigmas from it (a few cells in nearly one orientation can be fitted by a bias across
     // gravity far out, where the norm's curvature makes it look determined).
@@ -720,6 +761,7 @@ class AccelField {
   Settings settings_{};
   bool valid_ = false;
   Scalar g_counts_ = Scalar(1);  // raw units per g
+  Scalar change2_ = Scalar(0);   // a change's step, squared (normalised)
   Scalar weight_cap_ = Scalar(1), forget_hour_ = Scalar(1);
   Scalar reference_c_ = Scalar(25);
   Scalar min_c_ = std::numeric_limits<Scalar>::infinity();

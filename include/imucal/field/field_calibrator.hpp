@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-// imucal/field/field_calibrator.hpp: keeps the gyro's bias right through normal use, with nobody
-// turning the device (the design's field.md sections 1, 2 and 6; docs/field.md). It runs forever
-// on the raw stream.
+// imucal/field/field_calibrator.hpp: keeps the gyro's bias, the accelerometer's model and the
+// magnetometer's hard and soft iron right through normal use, with nobody turning the device (the
+// design's field.md; docs/field.md). It runs forever on the raw stream.
 //
 // The stream layer finds the rests: a RestMonitor (rest_monitor.hpp: the protocol's checks,
 // detector, blocks and rests) hands out every rest of min_rest_seconds or more, split into pieces
@@ -31,11 +31,15 @@
 // ramp. Every decision is an event (take_event()). The detector removes the published bias, so a
 // turn held back stays visible as motion-like energy. save_due() and mark_saved() keep the saves
 // within a wear budget (field_store.hpp writes them through the record store).
+// The rests the gyro's filter takes feed the accelerometer's model (accel_field.hpp) and, with
+// their mean fields and single readings in motion, the magnetometer's (mag_field.hpp); each is
+// judged, held and published by its own rules, its events carry its sensor. One call does at most
+// one of: taking a rest, the magnetometer's share of a rest taken before, one slice of a solve.
 //
 // Units: raw gyro units (the bias is ADDED to the raw reading, as in the calibration:
 // w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
-// Fixed memory (sizeof 3,952 B for float on the Arm targets, 3,928 on RV32), no allocation, no
-// exceptions. Header-only.
+// Fixed memory (sizeof docs/field.md states per target), no allocation, no exceptions.
+// Header-only.
 #pragma once
 
 #include <cmath>
@@ -44,6 +48,7 @@
 
 #include "imucal/field/accel_field.hpp"
 #include "imucal/field/bias_filter.hpp"
+#include "imucal/field/mag_field.hpp"
 #include "imucal/models/calibration.hpp"
 #include "imucal/models/temperature_model.hpp"
 #include "imucal/status.hpp"
@@ -99,6 +104,9 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
   // The accelerometer's model from the same rests (accel_field.hpp); kept when
   // accel.accel_per_m_s2 is set (NaN: the gyro alone).
   AccelFieldSettings<Scalar> accel{};
+  // The magnetometer's hard and soft iron from the same rests' mean fields (mag_field.hpp); kept
+  // when mag.counts_per_ut is set and add_mag() is fed.
+  MagFieldSettings<Scalar> mag{};
 };
 
 enum class FieldEventKind : std::uint8_t {
@@ -118,7 +126,8 @@ enum class FieldReason : std::uint8_t {
   kChange = 5,        // (kUpdated) after a change
   kFirst = 6,         // (kUpdated) the first publication
   kBetter = 7,        // (kUpdated) the filter's variance is a small share of the published one's
-  kImplausible = 8,   // (kRejected, the accelerometer's) its reading is no gravity as set up
+  kImplausible = 8,   // (kRejected, the accelerometer's or the magnetometer's) its reading is no
+                      // gravity, or no field of the expected strength, as set up
 };
 
 inline const char* field_event_name(FieldEventKind k) {
@@ -159,10 +168,10 @@ inline const char* field_reason_name(FieldReason r) {
   }
 }
 
-enum class FieldSensor : std::uint8_t { kGyro = 0, kAccel = 1 };
+enum class FieldSensor : std::uint8_t { kGyro = 0, kAccel = 1, kMag = 2 };
 
 inline const char* field_sensor_name(FieldSensor s) {
-  return s == FieldSensor::kGyro ? "gyro" : "accel";
+  return s == FieldSensor::kGyro ? "gyro" : (s == FieldSensor::kAccel ? "accel" : "mag");
 }
 
 // One decision. value: the sensor's published bias at temperature_c after it (raw, added); chi2:
@@ -196,6 +205,11 @@ struct FieldCounts {
   std::uint32_t accel_changes = 0;
   std::uint32_t accel_updates = 0;
   std::uint32_t accel_implausible = 0;
+  // The magnetometer's, alike.
+  std::uint32_t mag_held = 0;
+  std::uint32_t mag_changes = 0;
+  std::uint32_t mag_updates = 0;
+  std::uint32_t mag_implausible = 0;
 };
 
 template <typename Scalar, int Events = 8>
@@ -206,11 +220,13 @@ class FieldCalibrator {
   FieldCalibrator() = default;
 
   // Starts from a stored calibration (its gyro bias and sigma, and its temperature model's gyro
-  // part if usable) or, with nullptr, from the nominal prior. kInvalidArgument: settings out of
-  // range (then add() refuses every sample); kNonFiniteInput: the prior holds a NaN or infinity
-  // (the nominal prior is used instead).
+  // part if usable; its accelerometer part and the magnetometer's calibration, if given and
+  // usable, for those sensors' models) or, with nullptr, from the nominal prior.
+  // kInvalidArgument: settings out of range (then add() refuses every sample); kNonFiniteInput:
+  // the prior holds a NaN or infinity (the nominal prior is used instead).
   Status start(const Settings& settings, const Calibration<Scalar>* prior = nullptr,
-               const TemperatureModel<Scalar>* temperature = nullptr) {
+               const TemperatureModel<Scalar>* temperature = nullptr,
+               const MagCalibration<Scalar>* mag = nullptr) {
     settings_ = settings;
     valid_ = check(settings) && monitor_.reset(settings) == Status::kOk;
     gyro_cue_ = false;
@@ -227,6 +243,13 @@ class FieldCalibrator {
     mag_sum_.setZero();
     mag_sq_ = Scalar(0);
     mag_n_ = 0;
+    mag_reading_var_ = Scalar(0);
+    mag_offered_us_ = 0;
+    mag_first_ = mag_due_ = 0;
+    dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);
+    pose_n_ = 0u;
+    pose_dip_ = Scalar(0);
+    took_ = false;
     temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
     temperature_us_ = 0;
     doubt_ = Scalar(0);
@@ -306,6 +329,28 @@ class FieldCalibrator {
       }
       if (s != Status::kOk && result == Status::kOk) result = s;
     }
+    {  // the magnetometer's model, when its scale is set: from the stored calibration if usable
+      AccelFieldSettings<Scalar> m = mag_norm_settings(settings.mag);
+      AccelCalibration<Scalar> stored;
+      mag_frame_.setIdentity();
+      mag_like_ = MagCalibration<Scalar>{};
+      const bool usable = mag != nullptr && m.enabled && mag_prior(*mag, stored, mag_frame_);
+      if (usable) {
+        m.gravity = mag->field_ut;  // the strength the stored soft iron gives
+        mag_like_ = *mag;
+      } else {
+        mag_frame_.setIdentity();
+      }
+      const Status s = mag_.start(m, usable ? &stored : nullptr, nullptr, Scalar(25));
+      if (s == Status::kInvalidArgument) {
+        valid_ = false;
+        return s;
+      }
+      if (mag != nullptr && m.enabled && !usable && result == Status::kOk && succeeded(mag->status))
+        result = Status::kNonFiniteInput;
+      mag_field_ut_ = m.gravity;
+      mag_g_counts_ = m.accel_per_m_s2 * m.gravity;
+    }
     accel_rests_ = 0;
     accel_noise_axis_ = settings.accel_noise / Scalar(3);
     gyro_cue_ = has_published_;
@@ -345,6 +390,7 @@ class FieldCalibrator {
       judge(pending_piece_);
       pending_ = false;
     }
+    while (mag_due_ > 0) add_mag_piece();
   }
 
   // A magnetometer reading (raw units) that arrived with the latest sample: it shows a turn
@@ -356,6 +402,7 @@ class FieldCalibrator {
       mag_sum_.setZero();
       mag_sq_ = Scalar(0);
       mag_n_ = 0;
+      offer_moving(m);
       return Status::kOk;
     }
     if (mag_n_ == 0) mag_ref_ = m;  // sums about the first reading: noise-sized terms
@@ -503,6 +550,31 @@ class FieldCalibrator {
     }
     return published;
   }
+
+  // The magnetometer's hard iron the device applies (raw, added) and its sigma per axis; false
+  // before its first publication (then the prior's) or without the magnetometer's model
+  // (FieldSettings::mag).
+  bool mag_hard_iron(Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr) const {
+    if (!mag_.enabled()) {
+      out.setZero();
+      if (sigma != nullptr) sigma->setZero();
+      return false;
+    }
+    return mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), out, sigma);
+  }
+  // The published magnetometer model as a calibration (the corrector's and the record's): soft
+  // iron in the prior's frame, hard iron, their sigmas, the field strength; false before its
+  // first publication (out unchanged).
+  bool mag_calibration(MagCalibration<Scalar>& out) const {
+    if (!mag_.enabled() || !mag_.published()) return false;
+    AccelCalibration<Scalar> model;
+    TemperatureBias<Scalar> unused;
+    mag_.model(model, unused);
+    mag_from_model(model, mag_frame_, mag_field_ut_, mag_like_, out);
+    out.samples = static_cast<int>(mag_.cells());
+    return true;
+  }
+  const AccelField<Scalar, 26>& mag_field() const { return mag_; }
   const FieldCounts& counts() const { return counts_; }
   const RestMonitor<Scalar, 2>& monitor() const { return monitor_; }
   const Settings& settings() const { return settings_; }
@@ -543,6 +615,7 @@ class FieldCalibrator {
   };
 
   void after_sample(std::uint32_t t_us, Status st, Scalar temperature) {
+    took_ = false;
     if (!clock_started_) {
       clock_started_ = true;
     } else if (st != Status::kClockReset) {
@@ -578,17 +651,139 @@ class FieldCalibrator {
       judge(pending_piece_);
       pending_ = false;
     }
-    if (accel_.busy() && accel_.step() == AccelFieldEvent::kUpdated) accel_published();
+    // A call that took a rest does nothing more. Otherwise the magnetometer's share of a rest
+    // taken in an earlier call, or one slice of one model's solve, the accelerometer's first: no
+    // call does two of these.
+    if (took_) {
+    } else if (mag_due_ > 0) {
+      add_mag_piece();
+    } else if (accel_.busy()) {
+      if (accel_.step() == AccelFieldEvent::kUpdated)
+        model_published(accel_, FieldSensor::kAccel, counts_.accel_updates);
+    } else if (mag_.busy() && mag_.step() == AccelFieldEvent::kUpdated) {
+      model_published(mag_, FieldSensor::kMag, counts_.mag_updates);
+      dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);  // the dip through the new model, from its rests
+      pose_n_ = 0u;
+    }
   }
 
-  void accel_published() {
+  template <typename Model>
+  void model_published(const Model& m, FieldSensor sensor, std::uint32_t& updates) {
     static constexpr FieldReason kWhy[4] = {FieldReason::kFirst, FieldReason::kSignificant,
                                             FieldReason::kBetter, FieldReason::kChange};
-    const int r = accel_.update_reason();
-    ++counts_.accel_updates;
+    const int r = m.update_reason();
+    ++updates;
     unsaved_ = true;
-    event(FieldEventKind::kUpdated, kWhy[r < 0 || r > 3 ? 0 : r], temperature_, accel_.last_chi2(),
-          FieldSensor::kAccel);
+    event(FieldEventKind::kUpdated, kWhy[r < 0 || r > 3 ? 0 : r], temperature_, m.last_chi2(),
+          sensor);
+  }
+
+  // The oldest rest piece waiting for the magnetometer's model.
+  void add_mag_piece() {
+    const MagPiece& p = mag_pieces_[mag_first_];
+    mag_first_ ^= 1u;
+    --mag_due_;
+    // The field's angle to gravity through the published model: a magnetisation change that
+    // leaves the field's strength at this pose as it was turns its direction.
+    // Gravity through the accelerometer's published bias, and that bias's sigma as a direction.
+    Vector3<Scalar> gravity = p.acc, ab, as;
+    Scalar gravity_var = Scalar(0.0025);  // 50 mg, without the accelerometer's model
+    if (accel_.enabled()) {
+      accel_.bias(p.t, settings_.temperature_margin_c, ab, &as);
+      gravity += ab;
+      gravity_var = as.squaredNorm() / p.acc.squaredNorm();
+    }
+    const Scalar s = dip_sine(p.mag, gravity);
+    // In the pose of the last rest taken (gravity within 2 degrees), the accelerometer's error is
+    // the same: the dip is compared with that pose's alone, without it.
+    const Vector3<Scalar> up = gravity.normalized();
+    const bool same_pose = pose_n_ > 0u && up.dot(pose_up_) > Scalar(0.99939);
+    Scalar other = dip_chi2(s, gravity_var);
+    if (same_pose && std::isfinite(s)) {
+      const Scalar hard = mag_.published_sigmas().template segment<3>(kBiasX).squaredNorm();
+      const Scalar d = s - pose_dip_;
+      const Scalar near = d * d / (hard + Scalar(1e-4));
+      if (near > other) other = near;
+    }
+    const AccelFieldEvent e = mag_.add(p.mag, p.variance, std::numeric_limits<Scalar>::quiet_NaN(),
+                                       p.end_us, p.group, other);
+    if (e == AccelFieldEvent::kNone && std::isfinite(s)) {  // taken: the dip's mean and spread
+      if (dip_n_ < Scalar(50)) dip_n_ += Scalar(1);         // ... over the last fifty or so
+      const Scalar d = s - dip_mean_;
+      dip_mean_ += d / dip_n_;
+      dip_m2_ += d * (s - dip_mean_) - (dip_n_ >= Scalar(50) ? dip_m2_ / dip_n_ : Scalar(0));
+      if (!same_pose) pose_n_ = 0u;
+      pose_up_ = up;
+      ++pose_n_;
+      pose_dip_ += (s - pose_dip_) / static_cast<Scalar>(pose_n_ < 50u ? pose_n_ : 50u);
+    } else if (e == AccelFieldEvent::kChangeDetected) {
+      dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);
+      pose_n_ = 0u;
+    }
+    model_took(e, mag_, FieldSensor::kMag, p.t, counts_.mag_held, counts_.mag_implausible,
+               counts_.mag_changes);
+  }
+
+  // The sine of the angle between the field through the published model and the plane normal to
+  // gravity (the sine of the dip, up to its sign convention); NaN before a publication.
+  Scalar dip_sine(const Vector3<Scalar>& mag, const Vector3<Scalar>& acc) const {
+    if (!mag_.published()) return std::numeric_limits<Scalar>::quiet_NaN();
+    const AccelVector<Scalar> p = mag_.published_parameters().template head<kAccelParams>();
+    const Vector3<Scalar> m = accel_apply(p, Vector3<Scalar>(mag / mag_g_counts_));
+    const Scalar nm = m.norm(), na = acc.norm();
+    if (!(nm > Scalar(0)) || !(na > Scalar(0))) return std::numeric_limits<Scalar>::quiet_NaN();
+    return m.dot(acc) / (nm * na);
+  }
+
+  // How far a rest's dip is from the rests' before it: chi-square(1) against their spread, the
+  // published hard iron's sigma (a direction error of sigma / field), the gravity direction's
+  // variance (the accelerometer's bias across gravity) and a floor of 0.01 (0.6 degrees); 0 until
+  // three rests were taken since the last change or publication.
+  Scalar dip_chi2(Scalar s, Scalar gravity_var) const {
+    if (!std::isfinite(s) || dip_n_ < Scalar(3)) return Scalar(0);
+    const Scalar spread = dip_m2_ / (dip_n_ - Scalar(1));
+    const Scalar hard = mag_.published_sigmas().template segment<3>(kBiasX).squaredNorm();
+    const Scalar v =
+        (spread + hard + gravity_var + Scalar(1e-4)) * (Scalar(1) + Scalar(1) / dip_n_);
+    const Scalar d = s - dip_mean_;
+    return d * d / v;
+  }
+
+  // A magnetometer reading in motion: one reading, with the noise the rests measured. In a
+  // direction no cell holds yet (a hand turns the device through many more than the rests show),
+  // one a second; else one every confirm_seconds of the magnetometer's (the cells stay fresh, and
+  // a magnetisation change shows without waiting for a rest).
+  void offer_moving(const Vector3<Scalar>& m) {
+    if (!mag_.enabled() || !(mag_reading_var_ > Scalar(0))) return;
+    const std::uint64_t since = elapsed_us_ - mag_offered_us_;
+    if (mag_offered_us_ != 0 && since < 1000000u) return;
+    if ((mag_.full() || mag_.covers(m)) && mag_offered_us_ != 0 &&
+        static_cast<Scalar>(since / 1000u) < Scalar(1000) * settings_.mag.confirm_seconds)
+      return;
+    mag_offered_us_ = elapsed_us_ > 0 ? elapsed_us_ : 1u;
+    const AccelFieldEvent e = mag_.add(
+        m, mag_reading_var_, std::numeric_limits<Scalar>::quiet_NaN(), elapsed_us_, group_);
+    model_took(e, mag_, FieldSensor::kMag, temperature_, counts_.mag_held, counts_.mag_implausible,
+               counts_.mag_changes);
+  }
+
+  // What a rest did to a sensor's model, as events and counts.
+  template <typename Model>
+  void model_took(AccelFieldEvent e, const Model& m, FieldSensor sensor, Scalar t,
+                  std::uint32_t& held, std::uint32_t& implausible, std::uint32_t& changes) {
+    if (e == AccelFieldEvent::kHeld) {
+      ++held;
+      event(FieldEventKind::kHeld, FieldReason::kInconsistent, t, m.last_chi2(), sensor);
+    } else if (e == AccelFieldEvent::kUnconfirmed) {
+      event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, t, m.last_chi2(), sensor);
+    } else if (e == AccelFieldEvent::kImplausible) {
+      // Once per run of them: a setup that is wrong says so once, not with every rest.
+      if (implausible++ == 0)
+        event(FieldEventKind::kRejected, FieldReason::kImplausible, t, Scalar(0), sensor);
+    } else if (e == AccelFieldEvent::kChangeDetected) {
+      ++changes;
+      event(FieldEventKind::kChangeDetected, FieldReason::kNone, t, m.last_chi2(), sensor);
+    }
   }
 
   // Where a timestamp of the recent past lies on the elapsed clock.
@@ -628,6 +823,7 @@ class FieldCalibrator {
       const Scalar var = (mag_sq_ - n * mean.squaredNorm()) / (n - Scalar(1));
       p.mag_var = (var > Scalar(0) ? var : Scalar(0)) / n;
       p.has_mag = true;
+      if (var > Scalar(0)) mag_reading_var_ = var / Scalar(3);
     }
     mag_sum_.setZero();
     mag_sq_ = Scalar(0);
@@ -803,24 +999,21 @@ class FieldCalibrator {
     if (accel_.enabled()) {  // the rests the gyro takes are rests for the accelerometer too
       ++accel_rests_;
       const AccelFieldEvent e = accel_.add(p.acc, p.acc_var, p.t, p.end_us, p.group);
-      if (e == AccelFieldEvent::kHeld) {
-        ++counts_.accel_held;
-        event(FieldEventKind::kHeld, FieldReason::kInconsistent, p.t, accel_.last_chi2(),
-              FieldSensor::kAccel);
-      } else if (e == AccelFieldEvent::kUnconfirmed) {
-        event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, p.t, accel_.last_chi2(),
-              FieldSensor::kAccel);
-      } else if (e == AccelFieldEvent::kImplausible) {
-        // Once per run of them: a setup that is wrong says so once, not with every rest.
-        if (counts_.accel_implausible++ == 0)
-          event(FieldEventKind::kRejected, FieldReason::kImplausible, p.t, Scalar(0),
-                FieldSensor::kAccel);
-      } else if (e == AccelFieldEvent::kChangeDetected) {
-        ++counts_.accel_changes;
-        event(FieldEventKind::kChangeDetected, FieldReason::kNone, p.t, accel_.last_chi2(),
-              FieldSensor::kAccel);
-      }
+      model_took(e, accel_, FieldSensor::kAccel, p.t, counts_.accel_held, counts_.accel_implausible,
+                 counts_.accel_changes);
     }
+    if (mag_.enabled() && p.has_mag) {  // and the field held still over them: the magnetometer's,
+      // in a later call (the cost of one call stays one model's)
+      if (mag_due_ == 2) add_mag_piece();
+      MagPiece& m = mag_pieces_[(mag_first_ + mag_due_++) % 2];
+      m.mag = p.mag;
+      m.acc = p.acc;
+      m.variance = p.mag_var / Scalar(3);
+      m.end_us = p.end_us;
+      m.group = p.group;
+      m.t = p.t;
+    }
+    took_ = true;
     last_taken_group_ = p.group;
     if (independent_ == 0 || independent_of(last_independent_, p)) {
       last_independent_ = p;
@@ -890,6 +1083,8 @@ class FieldCalibrator {
     e.chi2 = chi2;
     if (sensor == FieldSensor::kAccel)
       accel_.bias(t, settings_.temperature_margin_c, e.value);
+    else if (sensor == FieldSensor::kMag)
+      mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), e.value);
     else
       e.value = published_.at(t, settings_.temperature_margin_c);
     if (events_.push(e)) ++counts_.events_dropped;
@@ -932,6 +1127,35 @@ class FieldCalibrator {
   AccelField<Scalar> accel_{};
   std::uint32_t accel_rests_ = 0;  // rests the accelerometer's model took
   Scalar accel_noise_axis_ = Scalar(0);
+  // The magnetometer's model (mag_field.hpp): a cell for each of the 26 directions.
+  AccelField<Scalar, 26> mag_{};
+  Scalar mag_reading_var_ = Scalar(0);  // one reading's variance per axis, at the last rest
+  // Rest pieces taken, for the magnetometer's model in later calls (a call may judge two).
+  struct MagPiece {
+    Vector3<Scalar> mag = Vector3<Scalar>::Zero();  // mean field (raw)
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero();  // mean accelerometer (raw): gravity
+    Scalar variance = Scalar(0);                    // of that mean, per axis
+    Scalar t = Scalar(0);                           // temperature (NaN: none)
+    std::uint64_t end_us = 0;
+    std::uint32_t group = 0;
+  };
+  MagPiece mag_pieces_[2] = {};
+  unsigned mag_first_ = 0, mag_due_ = 0;  // the oldest, and how many wait
+  // The dip's sine over the rests taken since the last change: count (capped), mean, and the sum
+  // of squared deviations.
+  Scalar dip_n_ = Scalar(0), dip_mean_ = Scalar(0), dip_m2_ = Scalar(0);
+  // ... and in the pose of the last rest taken: its gravity direction, the rests taken there, the
+  // dip's mean there.
+  Vector3<Scalar> pose_up_ = Vector3<Scalar>::Zero();
+  std::uint32_t pose_n_ = 0;
+  Scalar pose_dip_ = Scalar(0);
+  Scalar mag_g_counts_ = Scalar(1);   // raw units per the field's strength
+  bool took_ = false;                 // a piece was taken in this call
+  std::uint64_t mag_offered_us_ = 0;  // when a reading in motion was last offered
+  Matrix3<Scalar> mag_frame_ =
+      Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
+  MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
+  Scalar mag_field_ut_ = Scalar(50);   // the field strength the model's norm is
 };
 
 }  // namespace imucal

@@ -2,7 +2,8 @@
 // imucal/field/field_store.hpp: the field calibrator's publications to flash and back, through
 // the record store (store/record_store.hpp: power-cut safe, two slots). What is saved is a
 // calibration record: the calibration the device applies (the prior's, or the nominal gyro model,
-// with the published gyro bias) and the published bias-versus-temperature model with its range.
+// with the published gyro bias and accelerometer model), the published bias-versus-temperature
+// model with its range, and the magnetometer's published calibration.
 // After a reboot the calibrator resumes from it: the bias, its sigma, the slope and curvature
 // with theirs, and the temperatures the model saw.
 // Saves follow the calibrator's wear budget (FieldSettings::save_interval_s, saves_per_day):
@@ -19,7 +20,8 @@
 
 namespace imucal {
 
-// Saves the published calibration if a save is due. *saved (if given) says whether it wrote.
+// Saves the published calibration if a save is due, with the magnetometer's: the field
+// calibrator's published one, else `mag` if given. *saved (if given) says whether it wrote.
 // kOk: saved, or nothing due; otherwise the first failure (make_record()'s kInvalidArgument or
 // kImplausible, the store's kStorageError, kStorageVerifyFailed, kStorageBusy), and the
 // publication stays due: the record load() returns is the previous one or the new one.
@@ -32,6 +34,8 @@ Status save_field(FieldCalibrator<float, Events>& field, RecordStore& store,
   Calibration<float> calibration;
   TemperatureModel<float> model;
   field.calibration(calibration, model);
+  MagCalibration<float> published;
+  if (field.mag_calibration(published)) mag = &published;
   CalibrationRecord record;
   Status s = make_record(calibration, device_id, sensor_id, record, mag, &model);
   if (!succeeded(s)) return s;
@@ -42,7 +46,8 @@ Status save_field(FieldCalibrator<float, Events>& field, RecordStore& store,
   return Status::kOk;
 }
 
-// Starts the calibrator from the store's record (its gyro part and temperature model), or from
+// Starts the calibrator from the store's record (its gyro and accelerometer parts, temperature
+// model and magnetometer's calibration), or from
 // the nominal prior when there is none usable: then the store's reason (kNoRecord,
 // kStorageError, a record status) or kNotStarted for a record without a usable gyro part. The
 // calibrator's own refusals (kInvalidArgument for settings out of range) come first.
@@ -60,7 +65,9 @@ Status resume_field(FieldCalibrator<float, Events>& field, const FieldSettings<f
   }
   if (loaded != nullptr) *loaded = record;
   const bool model = (record.parts & kRecordTemperature) != 0;
-  return field.start(settings, &record.calibration, model ? &record.temperature : nullptr);
+  const bool mag = (record.parts & kRecordMag) != 0;
+  return field.start(settings, &record.calibration, model ? &record.temperature : nullptr,
+                     mag ? &record.mag : nullptr);
 }
 
 }  // namespace imucal

@@ -2,8 +2,8 @@
 // imucal/sim/field_settings.hpp: the field calibrator's settings for a simulated device, from what
 // its sheet says (never the truth): the per-sample white noise over the Nyquist band from the
 // datasheet densities, summed over the three axes in raw units squared, the gyro's and the
-// accelerometer's nominal scales, the accelerometer's tolerances (its prior) and the rate. The
-// tests, the field bench and the instruction counts set it up alike.
+// accelerometer's nominal scales, the accelerometer's tolerances (its prior), the magnetometer's
+// scale and the rate. The tests, the field bench and the instruction counts set it up alike.
 #pragma once
 
 #include <cmath>
@@ -29,6 +29,10 @@ inline FieldSettings<float> field_settings(const DeviceSheet& sheet) {
   s.accel.scale_sigma = static_cast<float>(sheet.accel_scale_tolerance * u);
   s.accel.misalignment_sigma = static_cast<float>(sheet.accel_misalignment_rad * u);
   s.accel.slope_sigma = static_cast<float>(sheet.accel_offset_drift_m_s2_c * u);
+  // The magnetometer's model, with its nominal scale and the settings' default prior (a phone's
+  // hard iron within 50 uT per axis, soft iron within a few per cent, the field's strength
+  // unknown within 15 %).
+  if (sheet.has_mag) s.mag.counts_per_ut = static_cast<float>(1.0 / sheet.mag_ut_per_count);
   s.nominal_rate_hz = static_cast<float>(sheet.rate_hz);
   return s;
 }
