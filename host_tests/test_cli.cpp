@@ -1272,12 +1272,17 @@ double z_score(const Json& value_sigma, double truth) {
 // empty): h and the symmetric S within 3 sigma of the truth, the field strength within a few
 // times its noise, exit code 0; aligned (the default) the dip within 3 sigma and the rotation
 // within 3 sigma of none (the simulated magnetometer is not rotated); float and double agree.
-TEST(CliMag, HardAndSoftIronWithinThreeSigmaFloatAndDouble) {
+// The protocol with a magnetometer reading every other line, no temperature (seed 21).
+MagTempRecording every_other_line_mag() {
   MagTempPlan plan;
   plan.seed = 21;
   plan.temp = false;
   plan.mag_every = 2;
-  const MagTempRecording rec = make_mag_temp_recording(plan);
+  return make_mag_temp_recording(plan);
+}
+
+TEST(CliMag, HardAndSoftIronWithinThreeSigmaFloatAndDouble) {
+  const MagTempRecording rec = every_other_line_mag();
   const std::string csv = temp_path("mag.csv"), json = temp_path("mag.json");
   write_file(csv, rec.text);
   Json sym[2];
@@ -2881,6 +2886,54 @@ TEST(CliField, BadInputGetsCalibratesMessages) {
 
 // The noise given instead of measured: the same decisions within the noise's effect (the bias
 // within the sigmas of calibrate's).
+// A recording with a magnetometer (the protocol's poses and turns, a reading every other line):
+// the field calibrator's hard iron agrees with the truth within 3 of its sigmas, and calibrate's
+// record as the prior is kept, with no change; the summary and the JSON show it.
+TEST(CliField, MagnetometerHardIronAndTheStoredOneKept) {
+  const MagTempRecording rec = every_other_line_mag();
+  const std::string csv = temp_path("field_mag.csv"), fj = temp_path("field_mag.json"),
+                    record = temp_path("field_mag.bin");
+  write_file(csv, rec.text);
+  // Unsigned 16-bit counts for the accelerometer and the gyro: their zero readings given.
+  const std::vector<std::string> zeros = {"--gyro-zero", "32768", "--accel-zero", "32768"};
+  std::vector<std::string> args = {"field", csv, "--json", fj};
+  args.insert(args.end(), zeros.begin(), zeros.end());
+  const MainRun run = run_main(args);
+  EXPECT_NE(run.code, 2) << run.err;
+  std::printf("%s", run.out.c_str());
+  Json j = read_json(fj);
+  ASSERT_FALSE(j.is_discarded());
+  const Json& h = j["mag_hard_iron"];
+  ASSERT_TRUE(h.is_object()) << j.dump();
+  ASSERT_TRUE(h["published"].get<bool>()) << run.out;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double v = h["value"][a], sigma = h["sigma"][a];
+    EXPECT_GT(sigma, 0.0);
+    EXPECT_LT(sigma, 2.0) << a;  // uT: refined far below the 30 uT prior
+    EXPECT_LE(std::fabs(v - rec.mag.h_true(static_cast<Eigen::Index>(a))), 3.0 * sigma)
+        << a << " " << h.dump();
+  }
+  EXPECT_NEAR(h["field_ut"].get<double>(), 50.0, 1e-3);  // the norm: the nominal field
+  EXPECT_EQ(j["counts"]["mag_updates"].get<unsigned>() > 0, true);
+  EXPECT_NE(run.out.find("magnetometer hard iron published"), std::string::npos) << run.out;
+  // calibrate's record (with its magnetometer part) as the prior: kept, no change.
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(calibrate_command({csv, "--record", record, "--quiet"}, false), 0);
+  testing::internal::GetCapturedStdout();
+  args.insert(args.end(), {"--prior", record});
+  const MainRun from = run_main(args);
+  EXPECT_NE(from.code, 2) << from.err;
+  j = read_json(fj);
+  ASSERT_TRUE(j["mag_hard_iron"]["published"].get<bool>());
+  EXPECT_EQ(j["counts"]["mag_changes"].get<unsigned>(), 0u);
+  EXPECT_NEAR(j["mag_hard_iron"]["field_ut"].get<double>(), rec.mag.field_ut, 1.0);
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double v = j["mag_hard_iron"]["value"][a], sigma = j["mag_hard_iron"]["sigma"][a];
+    EXPECT_LE(std::fabs(v - rec.mag.h_true(static_cast<Eigen::Index>(a))), 3.0 * sigma) << a;
+  }
+  for (const std::string& f : {csv, fj, record}) std::remove(f.c_str());
+}
+
 TEST(CliField, NoiseFromOptions) {
   const FieldCheck r =
       check_field({bundled_csv()},

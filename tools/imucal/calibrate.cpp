@@ -27,21 +27,6 @@ namespace imucal::cli {
 
 namespace {
 
-// uT per input unit of the magnetometer (NaN: counts without --mag-lsb-per-ut).
-double mag_unit_ut(const Options& o) {
-  switch (o.mag_unit) {
-    case MagUnit::kUt:
-      return 1.0;
-    case MagUnit::kNt:
-      return 0.001;
-    case MagUnit::kGauss:
-      return 100.0;
-    case MagUnit::kCounts:
-      return 1.0 / o.mag_lsb_per_ut;  // NaN if not given
-  }
-  return kNaN;
-}
-
 // The angle between two directions, in degrees (stable for small and for near-opposite ones).
 double angle_deg(const Vector3<double>& u, const Vector3<double>& v) {
   return std::atan2(u.cross(v).norm(), u.dot(v)) * kDeg;

@@ -51,6 +51,21 @@ inline double accel_nominal_scale(const Options& o) {
   return kNaN;
 }
 
+// uT per input unit of the magnetometer (NaN: counts without --mag-lsb-per-ut).
+inline double mag_unit_ut(const Options& o) {
+  switch (o.mag_unit) {
+    case MagUnit::kUt:
+      return 1.0;
+    case MagUnit::kNt:
+      return 0.001;
+    case MagUnit::kGauss:
+      return 100.0;
+    case MagUnit::kCounts:
+      return 1.0 / o.mag_lsb_per_ut;  // NaN if not given
+  }
+  return kNaN;
+}
+
 // The accelerometer's raw reading at zero acceleration (NaN: counts without --accel-zero).
 inline double accel_nominal_zero(const Options& o) {
   return o.accel_unit == AccelUnit::kCounts ? o.accel_zero : 0.0;

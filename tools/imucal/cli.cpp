@@ -133,8 +133,10 @@ Field (imucal field; the input, unit, range, --rate, --initial-rest, --memory, -
   --at-temperature DEGC           the published bias also at this temperature (-60 .. 150)
   --json FILE                     the counts, the published bias and model, every event
   The summary: the rests found, taken and refused (why), changes and updates, the published
-  bias with its sigma and temperature model, and the timeline of events (the first 30 and the
-  last 10 of a longer one). Exit code 0 when a bias was published, 1 when none was.
+  bias with its sigma and temperature model, the accelerometer's bias and the magnetometer's
+  hard iron (with a magnetometer in known units: --mag-unit, --mag-lsb-per-ut for counts; a
+  --prior record's magnetometer part is its prior), and the timeline of events (the first 30
+  and the last 10 of a longer one). Exit code 0 when a bias was published, 1 when none was.
 
 The summary lists every rest found (each a pose), explains its counts, and, when the
 calibration is refused or weak, says why and what to do next.

@@ -34,12 +34,12 @@ constexpr std::size_t kListed = 100000;
 constexpr std::size_t kShownFirst = 30, kShownLast = 10;
 
 // Options of `imucal calibrate` that say nothing to the field calibrator.
-const char* const kNotField[] = {"poses",          "refine-gyro-bias", "double",
-                                 "header",         "record",           "device-id",
-                                 "sensor-id",      "output",           "svg",
-                                 "truth",          "kalibr",           "min-rest",
-                                 "mag-lsb-per-ut", "mag-field-range",  "mag-min-coverage",
-                                 "no-mag-align",   "temp-order",       "temp-min-span"};
+const char* const kNotField[] = {"poses",           "refine-gyro-bias", "double",
+                                 "header",          "record",           "device-id",
+                                 "sensor-id",       "output",           "svg",
+                                 "truth",           "kalibr",           "min-rest",
+                                 "mag-field-range", "mag-min-coverage", "no-mag-align",
+                                 "temp-order",      "temp-min-span"};
 
 // One decision, as the timeline shows it.
 struct EventRow {
@@ -84,6 +84,12 @@ struct FieldRun {
   double accel_bias[3] = {kNaN, kNaN, kNaN}, accel_sigma[3] = {kNaN, kNaN, kNaN};
   double accel_per_m_s2 = kNaN;
   AccelCalibration<float> accel{};
+  // The magnetometer's model (kept when the input has a magnetometer in known units): its hard
+  // iron (raw, added) with its sigma per axis, and the calibration it publishes.
+  bool mag_enabled = false, mag_published = false;
+  double mag_ut_per_raw = kNaN;
+  double hard_iron[3] = {kNaN, kNaN, kNaN}, hard_iron_sigma[3] = {kNaN, kNaN, kNaN};
+  MagCalibration<float> mag{};
   std::map<std::string, StreamEvent> stream;  // refused and noted samples, by status
   std::vector<EventRow> timeline;             // the first kListed events
   std::deque<EventRow> last;                  // the last kShownLast events
@@ -95,6 +101,8 @@ double mean3(double a, double b, double c) { return (a + b + c) / 3.0; }
 struct Array3 {
   double v[3];
 };
+// v times k, each axis.
+Array3 scaled(const double* v, double k) { return {{v[0] * k, v[1] * k, v[2] * k}}; }
 Array3 array3(const Vector3<float>& x) {
   return {{static_cast<double>(x(0)), static_cast<double>(x(1)), static_cast<double>(x(2))}};
 }
@@ -174,6 +182,11 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
     fs.accel.gravity = static_cast<float>(o.gravity);
     run.accel_enabled = true;
   }
+  if (in.has_mag && std::isfinite(mag_unit_ut(o))) {  // the magnetometer's model: its units known
+    run.mag_ut_per_raw = mag_unit_ut(o);
+    fs.mag.counts_per_ut = static_cast<float>(1.0 / run.mag_ut_per_raw);
+    run.mag_enabled = true;
+  }
   if (std::isfinite(o.rest_piece)) fs.max_rest_seconds = static_cast<float>(o.rest_piece);
   run.rest_piece = static_cast<double>(fs.max_rest_seconds);
   const double az = accel_nominal_zero(o);
@@ -210,8 +223,10 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
   auto start = [&]() -> bool {
     fs.gyro_noise = static_cast<float>(run.gyro_noise_var);
     fs.accel_noise = static_cast<float>(run.accel_noise_var);
+    const bool prior_mag = prior != nullptr && (prior->parts & kRecordMag) != 0;
     const Status st = field->start(fs, prior != nullptr ? &prior_cal : nullptr,
-                                   prior_model_present ? &prior_model : nullptr);
+                                   prior_model_present ? &prior_model : nullptr,
+                                   prior_mag ? &prior->mag : nullptr);
     run.prior_status = to_string(st);
     if (st == Status::kInvalidArgument) {
       error = format_text(
@@ -243,8 +258,9 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
                                     static_cast<float>(s.mag[2])));
     FieldEvent<float> e;
     while (field->take_event(e)) {
-      e.value -= Vector3<float>::Constant(
-          static_cast<float>(e.sensor == FieldSensor::kAccel ? run.accel_zero : run.gyro_zero));
+      if (e.sensor != FieldSensor::kMag)
+        e.value -= Vector3<float>::Constant(
+            static_cast<float>(e.sensor == FieldSensor::kAccel ? run.accel_zero : run.gyro_zero));
       keep_event(e, run);
     }
   };
@@ -341,6 +357,15 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
     run.accel = cal.accel;
     for (int a = 0; a < 3; ++a) run.accel.params(kBiasX + a) -= static_cast<float>(run.accel_zero);
   }
+  if (run.mag_enabled) {
+    Vector3<float> h, sh;
+    run.mag_published = field->mag_hard_iron(h, &sh);
+    for (int a = 0; a < 3; ++a) {
+      run.hard_iron[a] = static_cast<double>(h(a));
+      run.hard_iron_sigma[a] = static_cast<double>(sh(a));
+    }
+    field->mag_calibration(run.mag);
+  }
   return run.published ? 0 : 1;
 }
 
@@ -353,15 +378,17 @@ std::string vec_text(const double* v, const char* format) {
   return "[" + fmt(format, v[0]) + ", " + fmt(format, v[1]) + ", " + fmt(format, v[2]) + "]";
 }
 
-// An event's bias in deg/s (the gyro's) or mg (the accelerometer's).
-void print_event(std::FILE* out, const EventRow& e, double to_dps, double to_mg) {
-  const bool accel = std::string(e.sensor) == "accel";
-  const double k = accel ? to_mg : to_dps;
+// An event's bias in deg/s (the gyro's), mg (the accelerometer's) or uT (the magnetometer's hard
+// iron).
+void print_event(std::FILE* out, const EventRow& e, double to_dps, double to_mg, double to_ut) {
+  const std::string sensor = e.sensor;
+  const bool accel = sensor == "accel", mag = sensor == "mag";
+  const double k = accel ? to_mg : (mag ? to_ut : to_dps);
   const double v[3] = {e.bias[0] * k, e.bias[1] * k, e.bias[2] * k};
-  std::fprintf(out, "  %9lu  %-6s %-15s %-12s %8s %10s  %s %s\n",
-               static_cast<unsigned long>(e.time_s), e.sensor, e.kind, e.reason,
-               fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
-               vec_text(v, accel ? "% .2f" : "% .5f").c_str(), accel ? "mg" : "deg/s");
+  std::fprintf(
+      out, "  %9lu  %-6s %-15s %-12s %8s %10s  %s %s\n", static_cast<unsigned long>(e.time_s),
+      e.sensor, e.kind, e.reason, fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
+      vec_text(v, accel || mag ? "% .2f" : "% .5f").c_str(), accel ? "mg" : (mag ? "uT" : "deg/s"));
 }
 
 void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) {
@@ -396,14 +423,14 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
                c.rests, c.taken, c.turning, c.held, c.unconfirmed);
   std::fprintf(out, "changes  %u detected; %u updates published\n", c.changes, c.updates);
   if (run.published) {
-    const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
+    const Array3 dps = scaled(run.bias, to_dps);
     std::fprintf(out, "\ngyro bias published (added to the raw reading), %s:\n",
                  std::isfinite(run.temperature_c)
                      ? ("at " + fmt("%.2f", run.temperature_c) + " deg C").c_str()
                      : "no temperature in the input");
     std::fprintf(out, "  b  %s +- %s %s\n", vec_text(run.bias, "% .6g").c_str(),
                  fmt("%.3g", run.sigma).c_str(), gu);
-    std::fprintf(out, "     %s +- %s deg/s\n", vec_text(dps, "% .5f").c_str(),
+    std::fprintf(out, "     %s +- %s deg/s\n", vec_text(dps.v, "% .5f").c_str(),
                  fmt("%.3g", run.sigma * to_dps).c_str());
     if (std::isfinite(o.at_temperature))
       std::fprintf(out, "  at %s deg C: %s +- %s %s\n", fmt("%.2f", o.at_temperature).c_str(),
@@ -453,10 +480,7 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
 
   const double to_mg = mg_per_raw(run, o);
   if (run.accel_enabled) {
-    const double mg[3] = {run.accel_bias[0] * to_mg, run.accel_bias[1] * to_mg,
-                          run.accel_bias[2] * to_mg};
-    const double smg[3] = {run.accel_sigma[0] * to_mg, run.accel_sigma[1] * to_mg,
-                           run.accel_sigma[2] * to_mg};
+    const Array3 mg = scaled(run.accel_bias, to_mg), smg = scaled(run.accel_sigma, to_mg);
     std::fprintf(out, "\naccelerometer bias %s (added to the raw reading), %s:\n",
                  run.accel_published ? "published" : "NOT published (the prior's)",
                  std::isfinite(run.temperature_c)
@@ -465,13 +489,36 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
     std::fprintf(out, "  b  %s %s\n", vec_pm(run.accel_bias, run.accel_sigma, "% .6g").c_str(),
                  accel_unit_name(o.accel_unit));
     std::fprintf(out, "     %s mg; %u rests held, %u changes, %u updates\n",
-                 vec_pm(mg, smg, "% .3f").c_str(), c.accel_held, c.accel_changes, c.accel_updates);
+                 vec_pm(mg.v, smg.v, "% .3f").c_str(), c.accel_held, c.accel_changes,
+                 c.accel_updates);
     if (c.accel_implausible > 0)
       std::fprintf(out,
                    "  %u rests refused: their reading is not gravity through the nominal scale "
                    "(give the accelerometer's zero reading, --accel-zero 32768 for unsigned "
                    "16-bit counts, or its --accel-lsb-per-g)\n",
                    c.accel_implausible);
+  }
+
+  const double to_ut = run.mag_ut_per_raw;
+  if (run.mag_enabled) {
+    const Array3 ut = scaled(run.hard_iron, to_ut), sut = scaled(run.hard_iron_sigma, to_ut);
+    std::fprintf(out, "\nmagnetometer hard iron %s (added to the raw reading):\n",
+                 run.mag_published ? "published" : "NOT published (the prior's)");
+    std::fprintf(out, "  h  %s %s\n", vec_pm(run.hard_iron, run.hard_iron_sigma, "% .6g").c_str(),
+                 mag_unit_name(o.mag_unit));
+    std::fprintf(out, "     %s uT; field %s uT; %u rests held, %u changes, %u updates\n",
+                 vec_pm(ut.v, sut.v, "% .3f").c_str(),
+                 fmt("%.2f", static_cast<double>(run.mag.field_ut)).c_str(), c.mag_held,
+                 c.mag_changes, c.mag_updates);
+    if (c.mag_implausible > 0)
+      std::fprintf(out,
+                   "  %u rests refused: their field is not of the expected strength through "
+                   "the model (a magnet on the device, or the wrong --mag-unit)\n",
+                   c.mag_implausible);
+  } else if (run.input.has_mag) {
+    std::fprintf(out,
+                 "\nmagnetometer: used to verify the rests only; its model needs its scale "
+                 "(--mag-lsb-per-ut with --mag-unit counts)\n");
   }
 
   std::fprintf(out, "\ntimeline (%s; t in s since the first sample; the sensor's bias after it)\n",
@@ -481,14 +528,15 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
                "temp", "chi2", "published bias");
   const std::size_t all = static_cast<std::size_t>(run.events);
   if (all <= kShownFirst + kShownLast) {
-    for (const EventRow& e : run.timeline) print_event(out, e, to_dps, to_mg);
+    for (const EventRow& e : run.timeline) print_event(out, e, to_dps, to_mg, to_ut);
     return;
   }
-  for (std::size_t i = 0; i < kShownFirst; ++i) print_event(out, run.timeline[i], to_dps, to_mg);
+  for (std::size_t i = 0; i < kShownFirst; ++i)
+    print_event(out, run.timeline[i], to_dps, to_mg, to_ut);
   std::fprintf(out, "  ... %zu events not shown (--json lists %s) ...\n",
                all - kShownFirst - kShownLast,
                all <= kListed ? "every one" : format_text("the first %zu", kListed).c_str());
-  for (const EventRow& e : run.last) print_event(out, e, to_dps, to_mg);
+  for (const EventRow& e : run.last) print_event(out, e, to_dps, to_mg, to_ut);
 }
 
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
@@ -563,11 +611,14 @@ std::string field_json(const FieldRun& run, const Options& o) {
                  {"accel_held", c.accel_held},
                  {"accel_changes", c.accel_changes},
                  {"accel_updates", c.accel_updates},
-                 {"accel_implausible", c.accel_implausible}};
+                 {"accel_implausible", c.accel_implausible},
+                 {"mag_held", c.mag_held},
+                 {"mag_changes", c.mag_changes},
+                 {"mag_updates", c.mag_updates},
+                 {"mag_implausible", c.mag_implausible}};
   Json bias = bias_json(run.published, gyro_unit_name(o.gyro_unit), run.bias, number(run.sigma),
                         run.temperature_c);
-  const double dps[3] = {run.bias[0] * to_dps, run.bias[1] * to_dps, run.bias[2] * to_dps};
-  bias["value_dps"] = vec3(dps);
+  bias["value_dps"] = vec3(scaled(run.bias, to_dps).v);
   bias["sigma_dps"] = number(run.sigma * to_dps);
   j["gyro_bias"] = bias;
   j["filter_bias"] = {{"value", vec3(run.filter_bias)}, {"sigma", number(run.filter_sigma)}};
@@ -591,6 +642,19 @@ std::string field_json(const FieldRun& run, const Options& o) {
     j["accel_bias"] = a;
   } else {
     j["accel_bias"] = nullptr;
+  }
+  if (run.mag_enabled) {
+    Json h = bias_json(run.mag_published, mag_unit_name(o.mag_unit), run.hard_iron,
+                       vec3(run.hard_iron_sigma), kNaN);
+    h["value_ut"] = vec3(scaled(run.hard_iron, run.mag_ut_per_raw).v);
+    h["sigma_ut"] = vec3(scaled(run.hard_iron_sigma, run.mag_ut_per_raw).v);
+    Json s = Json::array();
+    for (int r = 0; r < 3; ++r) s.push_back(vec3(Vector3<float>(run.mag.soft_iron.row(r))));
+    h["soft_iron"] = s;
+    h["field_ut"] = number(static_cast<double>(run.mag.field_ut));
+    j["mag_hard_iron"] = h;
+  } else {
+    j["mag_hard_iron"] = nullptr;
   }
   const TemperatureModel<float>& m = run.model;
   j["temperature_model"] = {{"model", kTemperatureModel},
