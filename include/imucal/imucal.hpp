@@ -5,6 +5,8 @@
 
 #include "imucal/calibrator/calibrator.hpp"
 #include "imucal/corrector.hpp"
+#include "imucal/field/field_calibrator.hpp"
+#include "imucal/field/field_store.hpp"
 #include "imucal/magnetometer/mag_calibration.hpp"
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/gyro_model.hpp"
