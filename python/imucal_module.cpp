@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // python/imucal_module.cpp: `imucal._imucal`, the compiled part of the `imucal` Python package
 // (pybind11; the typed API over it is python/imucal/__init__.py, its stub _imucal.pyi). numpy
-// arrays and the command's options in, what `imucal calibrate` and `imucal noise` print and write
+// arrays and the command's options in, what `imucal calibrate`, `field` and `noise` print and write
 // out (their JSON, summary, record); the record codec and the corrector the firmware runs. Host
 // only.
 #include <pybind11/numpy.h>
@@ -97,6 +97,28 @@ py::tuple calibrate(const py::object& acc, const py::object& gyro, const py::obj
                          : py::object(py::bytes(reinterpret_cast<const char*>(run.record.data()),
                                                 run.record.size()));
   return py::make_tuple(run.json, run.summary, record, code == 0);
+}
+
+// `imucal field` over the arrays from the record `prior` (bytes, or None: the nominal prior):
+// (its JSON, its summary, whether the gyro bias was published). ValueError where the command
+// exits 2.
+py::tuple field(const py::object& acc, const py::object& gyro, const py::object& t,
+                const py::object& mag, const py::object& temp, const py::object& prior,
+                const std::vector<std::string>& args) {
+  const Arrays arrays = arrays_of(acc, gyro, t, mag, temp);
+  std::vector<std::uint8_t> bytes;
+  if (!prior.is_none()) {
+    const std::string b = py::cast<py::bytes>(prior);
+    bytes.assign(b.begin(), b.end());
+  }
+  imucal::cli::MemoryRun run;
+  int code = 0;
+  {
+    py::gil_scoped_release release;
+    code = imucal::cli::field_memory(args, arrays.view, prior.is_none() ? nullptr : &bytes, run);
+  }
+  if (code == 2) throw py::value_error(run.error);
+  return py::make_tuple(run.json, run.summary, code == 0);
 }
 
 // `imucal noise` over the arrays: (its JSON, its summary, Kalibr's imu.yaml text or None).
@@ -217,6 +239,11 @@ PYBIND11_MODULE(_imucal, m) {
         py::arg("temp"), py::arg("args"),
         "`imucal calibrate ARGS` over the arrays (each None or (N, 3), t and temp (N,)): "
         "(JSON text, summary, record bytes or None, usable). ValueError where the command exits "
+        "2.");
+  m.def("field", &field, py::arg("acc"), py::arg("gyro"), py::arg("t"), py::arg("mag"),
+        py::arg("temp"), py::arg("prior"), py::arg("args"),
+        "`imucal field ARGS` over the arrays from the record `prior` (bytes or None): (JSON "
+        "text, summary, whether a gyro bias was published). ValueError where the command exits "
         "2.");
   m.def("noise", &noise, py::arg("acc"), py::arg("gyro"), py::arg("t"), py::arg("args"),
         "`imucal noise ARGS` over the arrays: (JSON text, summary, Kalibr's imu.yaml text or "

@@ -4,6 +4,7 @@ over numpy arrays: the library's streaming calibrator as the `imucal` command ru
 options, the same results (docs/python.md).
 
     calibrate(acc, gyro, t=..., ...) -> Calibration    a recording's calibration
+    field(acc, gyro, t=..., ...) -> Field              a recording through the field calibrator
     noise(acc, gyro, t=..., ...) -> Noise              a still recording's noise
     decode_record(record) -> Record                    a device record's contents
     Corrector(record).apply(acc, gyro, temp)           the firmware's correction
@@ -17,8 +18,8 @@ from typing import Any, Dict, List, Literal, Optional, Tuple
 from numpy.typing import ArrayLike
 
 from . import _imucal
-from ._results import (Calibration, FloatArray, Magnetometer, Noise, NoiseTerm, Parameters,
-                       Poses, Record, SensorNoise, TemperatureBias, TemperatureModel)
+from ._results import (Calibration, Field, FieldBias, FloatArray, Magnetometer, Noise, NoiseTerm,
+                       Parameters, Poses, Record, SensorNoise, TemperatureBias, TemperatureModel)
 
 __version__: str = _imucal.__version__
 ACCEL_PARAMETERS: Tuple[str, ...] = _imucal.ACCEL_PARAMETERS
@@ -27,9 +28,9 @@ GYRO_PARAMETERS: Tuple[str, ...] = _imucal.GYRO_PARAMETERS
 """The gyroscope's parameter names, in the model's order (the library's kGyroParamNames)."""
 
 __all__ = [
-    "ACCEL_PARAMETERS", "GYRO_PARAMETERS", "Calibration", "Corrector", "Magnetometer", "Noise",
-    "NoiseTerm", "Parameters", "Poses", "Record", "SensorNoise", "TemperatureBias",
-    "TemperatureModel", "calibrate", "decode_record", "noise",
+    "ACCEL_PARAMETERS", "GYRO_PARAMETERS", "Calibration", "Corrector", "Field", "FieldBias",
+    "Magnetometer", "Noise", "NoiseTerm", "Parameters", "Poses", "Record", "SensorNoise",
+    "TemperatureBias", "TemperatureModel", "calibrate", "decode_record", "field", "noise",
 ]
 
 _FLAGS = ("poses", "refine_gyro_bias", "double")  # options that are flags of the command
@@ -182,6 +183,82 @@ def calibrate(
     except ValueError as e:
         raise ValueError(_in_python_terms(str(e))) from None
     return Calibration._from_command(_json.loads(text), summary, record, usable)
+
+
+def field(
+    acc: Optional[ArrayLike] = None,
+    gyro: Optional[ArrayLike] = None,
+    *,
+    t: Optional[ArrayLike] = None,
+    rate: Optional[float] = None,
+    mag: Optional[ArrayLike] = None,
+    temp: Optional[ArrayLike] = None,
+    prior: Optional[bytes] = None,
+    time_unit: Literal["s", "ms", "us"] = "s",
+    accel_unit: Literal["counts", "g", "mps2"] = "mps2",
+    accel_lsb_per_g: Optional[float] = None,
+    accel_zero: Optional[float] = None,
+    accel_range: Optional[Tuple[float, float]] = None,
+    gyro_unit: Literal["counts", "dps", "rads"] = "rads",
+    gyro_lsb_per_dps: Optional[float] = None,
+    gyro_zero: Optional[float] = None,
+    gyro_range: Optional[Tuple[float, float]] = None,
+    gravity: float = 9.80665,
+    initial_rest: float = 2.0,
+    gyro_noise: Optional[float] = None,
+    accel_noise: Optional[float] = None,
+    rest_piece: Optional[float] = None,
+    mag_unit: Literal["counts", "ut", "nt", "gauss"] = "ut",
+    mag_lsb_per_ut: Optional[float] = None,
+    memory: float = 256.0,
+) -> Field:
+    """Replays a recording of any length through the field calibrator, one sample at a time as
+    on the device, as `imucal field` does (docs/field.md, docs/commands.md): the gyro bias, the
+    accelerometer's model and the magnetometer's hard iron it keeps, and every decision.
+
+    Readings (raw, in the units below), as for calibrate():
+      acc: accelerometer, shape (N, 3). gyro: gyroscope, (N, 3). mag: magnetometer, (N, 3); a
+        row of NaN is a sample without a reading. temp: deg C, (N,).
+      t: each sample's time, (N,), in time_unit; or rate: the sample rate, Hz (sample i at
+        i/rate s). One of them is required.
+      prior: a device record's bytes (Calibration.record, or what the firmware saved) to start
+        from: its gyro bias and temperature model, its accelerometer part, its magnetometer's
+        calibration. None: the library's nominal prior.
+    Units and sensors:
+      time_unit: the unit of t: "s", "ms" or "us".
+      accel_unit: "counts", "g" or "mps2". accel_lsb_per_g: nominal counts per g (counts; the
+        accelerometer's model needs it). accel_zero: nominal raw reading at 0 g (e.g. 32768).
+        accel_range: (low, high) full scale in raw units.
+      gyro_unit: "counts", "dps" or "rads". gyro_lsb_per_dps: nominal counts per deg/s (needed in
+        counts without a prior). gyro_zero: nominal raw reading at zero rate (the prior's bias is
+        -gyro_zero). gyro_range: as accel_range.
+      gravity: local gravity, m/s^2 (9.7 .. 9.9).
+      mag_unit: "counts", "ut", "nt" or "gauss". mag_lsb_per_ut: nominal counts per uT (counts:
+        without it the magnetometer only verifies rests).
+    The field calibrator:
+      initial_rest: s, the still period the noise at rest is measured over (unless both noises
+        are given).
+      gyro_noise: rad/s, accel_noise: m/s^2: one sample's noise on one axis (default: measured).
+      rest_piece: s, the longest piece a rest is judged in (default 5).
+      memory: MB the samples before the noise is known may take.
+
+    Returns a Field. Raises ValueError with the reason for what the command refuses (missing
+    times, a prior that is no record, the gyro's scale unknown, no still period to measure the
+    noise over).
+    """
+    _needs_time("field", acc, gyro, t, rate)
+    args = _command_args(dict(
+        rate=rate, time_unit=time_unit, accel_unit=accel_unit, accel_lsb_per_g=accel_lsb_per_g,
+        accel_zero=accel_zero, accel_range=accel_range, gyro_unit=gyro_unit,
+        gyro_lsb_per_dps=gyro_lsb_per_dps, gyro_zero=gyro_zero, gyro_range=gyro_range,
+        gravity=gravity, initial_rest=initial_rest, gyro_noise=gyro_noise,
+        accel_noise=accel_noise, rest_piece=rest_piece, mag_unit=mag_unit,
+        mag_lsb_per_ut=mag_lsb_per_ut, memory=memory))
+    try:
+        text, summary, _ = _imucal.field(acc, gyro, t, mag, temp, prior, args)
+    except ValueError as e:
+        raise ValueError(_in_python_terms(str(e))) from None
+    return Field._from_command(_json.loads(text), summary)
 
 
 def noise(

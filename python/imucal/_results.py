@@ -265,6 +265,55 @@ class Noise:
 
 
 @dataclass(frozen=True, eq=False)
+class FieldBias:
+    """A sensor's bias as the field calibrator publishes it: raw units, ADDED to the raw reading,
+    with its one-sigma per axis; `published` False: still the prior's."""
+
+    published: bool
+    value: FloatArray
+    sigma: FloatArray
+    unit: str
+
+    @classmethod
+    def _from_json(cls, j: Optional[Json]) -> Optional[FieldBias]:
+        if j is None:
+            return None
+        sigma = j["sigma"]
+        if not isinstance(sigma, list):
+            sigma = [sigma] * 3
+        return cls(bool(j["published"]), _array(j["value"]), _array(sigma), str(j["unit"]))
+
+
+@dataclass(frozen=True, eq=False)
+class Field:
+    """What imucal.field() decided over a recording: the biases the device would apply at the end
+    (the gyro's at the recording's last temperature; the accelerometer's and the magnetometer's
+    hard iron when their models ran, else None), the counts of rests and decisions, and every
+    event in order."""
+
+    gyro_bias: FieldBias
+    accel_bias: Optional[FieldBias]
+    mag_hard_iron: Optional[FieldBias]
+    counts: Dict[str, int]
+    timeline: List[Json] = field(repr=False)
+    """Each decision: time_s, sensor, kind, reason, temperature_c, chi2, the published bias after
+    it (raw)."""
+    summary: str = field(repr=False)
+    """The summary `imucal field` prints."""
+    json: Json = field(repr=False)
+    """Everything, as `imucal field --json` writes it."""
+
+    @classmethod
+    def _from_command(cls, json: Json, summary: str) -> Field:
+        gyro = FieldBias._from_json(json["gyro_bias"])
+        assert gyro is not None
+        return cls(gyro, FieldBias._from_json(json.get("accel_bias")),
+                   FieldBias._from_json(json.get("mag_hard_iron")),
+                   {k: int(v) for k, v in json["counts"].items()}, list(json["timeline"]),
+                   summary, json)
+
+
+@dataclass(frozen=True, eq=False)
 class Record:
     """A device record, decoded: its format `version`, ids, `quality`, the sensors' parameters
     (None where the record has no such part), whether it holds a magnetometer calibration and a

@@ -61,6 +61,11 @@ int calibrate_memory(const std::vector<std::string>& args, const SampleArrays& a
 bool open_arrays(const std::vector<std::string>& args, const SampleArrays& arrays, Options& o,
                  SampleReader& reader, Diagnostics& diag, std::string& error);
 
+// `imucal field` over samples in memory, from the record `prior` (its bytes; nullptr: the nominal
+// prior): its summary and --json in `out` (`record` unused). Returns the command's exit code.
+int field_memory(const std::vector<std::string>& args, const SampleArrays& arrays,
+                 const std::vector<std::uint8_t>* prior, MemoryRun& out);
+
 // `imucal noise` over samples in memory: its summary, --json, --kalibr and (with --svg) page.
 struct NoiseRun {
   std::string error;                       // exit code 2: why

@@ -691,23 +691,27 @@ std::string field_json(const FieldRun& run, const Options& o) {
   return j.dump(2) + "\n";
 }
 
+// An option given that says nothing to the field calibrator: false with the reason.
+bool field_options_apply(const Options& o, std::string& error) {
+  for (const std::string& k : o.command_line_keys) {
+    for (const char* no : kNotField) {
+      if (k == no) {
+        error = "--" + k + " does not apply to the field calibrator";
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 int field_command(const std::vector<std::string>& args) {
   Options o;
   std::string error;
-  if (!parse_calibrate_options(args, o, error)) {
+  if (!parse_calibrate_options(args, o, error) || !field_options_apply(o, error)) {
     std::fprintf(stderr, "imucal field: %s\n", error.c_str());
     return 2;
-  }
-  for (const std::string& k : o.command_line_keys) {
-    for (const char* no : kNotField) {
-      if (k == no) {
-        std::fprintf(stderr, "imucal field: --%s does not apply to the field calibrator\n",
-                     k.c_str());
-        return 2;
-      }
-    }
   }
   if (o.files.empty()) {
     std::fprintf(stderr, "imucal field: no input (a CSV file, - for stdin, or two imu_tk files)\n");
@@ -753,6 +757,40 @@ int field_command(const std::vector<std::string>& args) {
   std::FILE* summary = o.json_path == "-" ? stderr : stdout;
   print_field_summary(run, o, summary);
   if (!o.json_path.empty() && !write_text_file(o.json_path, field_json(run, o))) return 2;
+  return code;
+}
+
+int field_memory(const std::vector<std::string>& args, const SampleArrays& arrays,
+                 const std::vector<std::uint8_t>* prior, MemoryRun& out) {
+  Options o;
+  Diagnostics diag;
+  SampleReader reader;
+  if (!open_arrays(args, arrays, o, reader, diag, out.error) ||
+      !field_options_apply(o, out.error) || !settle_options(reader, o, out.error))
+    return 2;
+  std::unique_ptr<CalibrationRecord> record;
+  if (prior != nullptr) {
+    record = std::make_unique<CalibrationRecord>();
+    static const std::uint8_t kNothing = 0;
+    const std::uint8_t* p = prior->empty() ? &kNothing : prior->data();
+    const Status st = decode_record(p, prior->size(), *record);
+    if (st != Status::kOk) {
+      out.error = std::string("prior: not a valid record: ") + to_string(st);
+      return 2;
+    }
+    o.prior_path = "<bytes>";
+  }
+  FieldRun run;
+  const int code = run_field(o, reader, diag, record.get(), run, out.error);
+  run.input.diagnostic_count = static_cast<long>(diag.count());
+  for (const Diagnostic& d : diag.kept()) run.input.diagnostics.push_back(d.text());
+  if (code == 2) {
+    if (out.error.empty())
+      out.error = diag.kept().empty() ? "the input could not be read" : diag.kept()[0].message;
+    return 2;
+  }
+  out.summary = printed([&](std::FILE* f) { print_field_summary(run, o, f); });
+  out.json = field_json(run, o);
   return code;
 }
 
