@@ -47,7 +47,7 @@ struct MagFieldSettings {
   // The prior without a stored calibration: the nominal model with these sigmas.
   Scalar hard_iron_sigma_ut = Scalar(30);
   Scalar scale_sigma = Scalar(0.15);         // relative: soft iron and the field's strength
-  Scalar misalignment_sigma = Scalar(0.03);  // the soft iron's off-diagonal part (relative)
+  Scalar misalignment_sigma = Scalar(0.08);  // the soft iron's off-diagonal part (relative)
   // What no rest mean is better than (the soft-iron model's misfit, a field not quite uniform):
   // caps a cell's weight. uT.
   Scalar floor_ut = Scalar(0.3);
