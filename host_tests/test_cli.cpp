@@ -2916,6 +2916,24 @@ TEST(CliField, MagnetometerHardIronAndTheStoredOneKept) {
   EXPECT_NEAR(h["field_ut"].get<double>(), 50.0, 1e-3);  // the norm: the nominal field
   EXPECT_EQ(j["counts"]["mag_updates"].get<unsigned>() > 0, true);
   EXPECT_NE(run.out.find("magnetometer hard iron published"), std::string::npos) << run.out;
+  // The picture page: a section per sensor, a decision marked for each update.
+  const std::string svg = temp_path("field_mag.svg");
+  std::vector<std::string> with_svg = args;
+  with_svg.insert(with_svg.end(), {"--svg", svg});
+  ASSERT_NE(run_main(with_svg).code, 2);
+  const std::string page = file_text(svg);
+  for (const char* section :
+       {"gyro bias published", "accelerometer bias published", "magnetometer hard iron published"})
+    EXPECT_NE(page.find(section), std::string::npos) << section;
+  std::size_t dots = 0;
+  for (std::size_t at = page.find("<title>updated"); at != std::string::npos;
+       at = page.find("<title>updated", at + 1))
+    ++dots;
+  unsigned updates = 0;
+  for (const Json& e : j["timeline"]) updates += e["kind"] == "updated" ? 1u : 0u;
+  EXPECT_EQ(dots, updates);
+  EXPECT_EQ(page.rfind("</svg>\n"), page.size() - 7);
+  std::remove(svg.c_str());
   // calibrate's record (with its magnetometer part) as the prior: kept, no change.
   testing::internal::CaptureStdout();
   ASSERT_EQ(calibrate_command({csv, "--record", record, "--quiet"}, false), 0);

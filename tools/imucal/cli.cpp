@@ -132,6 +132,8 @@ Field (imucal field; the input, unit, range, --rate, --initial-rest, --memory, -
                                   bias is published only from a rest of more than one piece
   --at-temperature DEGC           the published bias also at this temperature (-60 .. 150)
   --json FILE                     the counts, the published bias and model, every event
+  --svg FILE                      the picture page: each sensor's published bias over the
+                                  recording with its decisions marked, and the temperature
   The summary: the rests found, taken and refused (why), changes and updates, the published
   bias with its sigma and temperature model, the accelerometer's bias and the magnetometer's
   hard iron (with a magnetometer in known units: --mag-unit, --mag-lsb-per-ut for counts; a

@@ -21,6 +21,7 @@
 #include "imucal/models/gyro_model.hpp"
 #include "imucal/store/record.hpp"
 #include "outputs.hpp"
+#include "report_svg_kit.hpp"
 #include "sample_store.hpp"
 
 namespace imucal::cli {
@@ -34,12 +35,11 @@ constexpr std::size_t kListed = 100000;
 constexpr std::size_t kShownFirst = 30, kShownLast = 10;
 
 // Options of `imucal calibrate` that say nothing to the field calibrator.
-const char* const kNotField[] = {"poses",           "refine-gyro-bias", "double",
-                                 "header",          "record",           "device-id",
-                                 "sensor-id",       "output",           "svg",
-                                 "truth",           "kalibr",           "min-rest",
-                                 "mag-field-range", "mag-min-coverage", "no-mag-align",
-                                 "temp-order",      "temp-min-span"};
+const char* const kNotField[] = {
+    "poses",        "refine-gyro-bias", "double",           "header",       "record",
+    "device-id",    "sensor-id",        "output",           "truth",        "kalibr",
+    "min-rest",     "mag-field-range",  "mag-min-coverage", "no-mag-align", "temp-order",
+    "temp-min-span"};
 
 // One decision, as the timeline shows it.
 struct EventRow {
@@ -539,6 +539,117 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
   for (const EventRow& e : run.last) print_event(out, e, to_dps, to_mg, to_ut);
 }
 
+// The picture page (--svg): per sensor, the published bias over the recording (each axis, in
+// deg/s, mg or uT) with its decisions marked (updated: a dot; held: an orange tick; refused: a
+// grey one; a change: a red line), and the temperature at the decisions.
+std::string field_svg(const FieldRun& run, const Options& o) {
+  using namespace report;
+  const Run& in = run.input;
+  const double span_s = std::isfinite(in.t_last - in.t_first) ? in.t_last - in.t_first : 0;
+  const bool hours = span_s > 7200;
+  const double unit_s = hours ? 3600 : 1;
+  TimeAxis axis;
+  axis.lo = 0;
+  axis.hi = std::max(span_s / unit_s, 1e-3);
+  axis.valid = true;
+  axis.name = hours ? "hours since the first sample" : "seconds since the first sample";
+  Page page;
+  page.text(30, 38, "imucal field calibrator", "class=\"t\"");
+  page.text(30, 62,
+            elide(o.files.empty() ? std::string() : o.files[0], 80) + " \u00b7 " +
+                grouped(in.samples) + " samples over " + printf_string("%.2f", span_s / 3600) +
+                " h \u00b7 prior " + elide(run.prior, 40),
+            "class=\"v\"");
+  double y = 100;
+  struct Sensor {
+    const char* name;
+    const char* title;
+    double scale;
+  };
+  const double to_dps = kDeg / run.gyro_per_rad_s;
+  std::vector<Sensor> sensors = {{"gyro", "gyro bias published (deg/s, added)", to_dps}};
+  if (run.accel_enabled)
+    sensors.push_back({"accel", "accelerometer bias published (mg, added)", mg_per_raw(run, o)});
+  if (run.mag_enabled)
+    sensors.push_back({"mag", "magnetometer hard iron published (uT, added)", run.mag_ut_per_raw});
+  for (const Sensor& s : sensors) {
+    std::vector<const EventRow*> rows;
+    for (const EventRow& e : run.timeline)
+      if (std::string(e.sensor) == s.name) rows.push_back(&e);
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (const EventRow* e : rows)
+      for (int a = 0; a < 3; ++a) {
+        lo = std::min(lo, e->bias[a] * s.scale);
+        hi = std::max(hi, e->bias[a] * s.scale);
+      }
+    pad_range(lo, hi, 0.08);
+    section_title(page, y, s.title);
+    legend(page, y, {{"x", kAxisColour[0]}, {"y", kAxisColour[1]}, {"z", kAxisColour[2]}});
+    const Panel p = make_panel(y + 12, 150, axis.lo, axis.hi, lo, hi);
+    value_grid(page, p, s.name);
+    time_grid(page, p, axis, false);
+    if (rows.empty()) caption_in(page, p, "no decision");
+    for (int a = 0; a < 3; ++a) {
+      PathBuilder path;
+      double last = kNaN;
+      for (const EventRow* e : rows) {
+        const double x = p.sx(e->time_s / unit_s), v = p.sy(e->bias[a] * s.scale);
+        if (std::isfinite(last)) path.point(x, last);
+        path.point(x, v);
+        last = v;
+      }
+      if (std::isfinite(last)) path.point(p.sx(axis.hi), last);
+      page.path(path.str(), std::string("class=\"s\" stroke=\"") + kAxisColour[a] + "\"");
+    }
+    for (const EventRow* e : rows) {
+      const double x = p.sx(e->time_s / unit_s);
+      const std::string kind = e->kind;
+      const std::string tip = kind + " (" + e->reason + ") at " + std::to_string(e->time_s) + " s";
+      if (kind == "change_detected")
+        page.line(x, p.y, x, p.y + p.h, "stroke=\"#c62828\" stroke-width=\"1.5\"");
+      else if (kind == "updated")
+        page.circle(x, p.y + p.h - 5, 2.5, "fill=\"#1565c0\"", tip);
+      else if (kind == "held")
+        page.rect(x - 0.5, p.y + p.h - 12, 1.5, 8, "fill=\"#ef6c00\"", tip);
+      else if (kind == "rejected")
+        page.rect(x - 0.5, p.y + p.h - 10, 1, 6, "fill=\"#9e9e9e\"", tip);
+    }
+    frame(page, p);
+    y = p.y + p.h + 40;
+  }
+  // The temperature at the decisions, where the input has one.
+  double tlo = HUGE_VAL, thi = -HUGE_VAL;
+  for (const EventRow& e : run.timeline)
+    if (std::isfinite(e.temperature_c)) {
+      tlo = std::min(tlo, e.temperature_c);
+      thi = std::max(thi, e.temperature_c);
+    }
+  if (tlo <= thi) {
+    pad_range(tlo, thi, 0.08);
+    section_title(page, y, "temperature at the decisions (deg C)");
+    const Panel p = make_panel(y + 12, 110, axis.lo, axis.hi, tlo, thi);
+    value_grid(page, p, "deg C");
+    time_grid(page, p, axis, true);
+    PathBuilder temp;
+    for (const EventRow& e : run.timeline)
+      if (std::isfinite(e.temperature_c))
+        temp.point(p.sx(e.time_s / unit_s), p.sy(e.temperature_c));
+    page.path(temp.str(), "class=\"s\" stroke=\"#6d4c41\"");
+    frame(page, p);
+    y = p.y + p.h + 50;
+  } else {
+    page.text(kPlotLeft + kPlotWidth / 2, y - 8, axis.label(),
+              "class=\"ax\" text-anchor=\"middle\"");
+    y += 10;
+  }
+  page.text(kPlotLeft, y,
+            "decisions: a dot updated \u00b7 orange held \u00b7 grey refused \u00b7 a red line "
+            "a change confirmed",
+            "class=\"cap\"");
+  y += 20;
+  return svg_document(page, y, "imucal field calibrator");
+}
+
 Json number(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 Json vec3(const double* v) { return Json::array({number(v[0]), number(v[1]), number(v[2])}); }
 Json vec3(const Vector3<float>& v) { return vec3(array3(v).v); }
@@ -719,7 +830,8 @@ int field_command(const std::vector<std::string>& args) {
   }
   std::vector<std::string> inputs = o.files;
   inputs.push_back(o.prior_path);
-  if (!outputs_apart_from_inputs(inputs, {{"--json", o.json_path}})) return 2;
+  if (!outputs_apart_from_inputs(inputs, {{"--json", o.json_path}, {"--svg", o.svg_path}}))
+    return 2;
   std::unique_ptr<CalibrationRecord> prior;
   if (!o.prior_path.empty()) {
     prior = std::make_unique<CalibrationRecord>();
@@ -757,6 +869,7 @@ int field_command(const std::vector<std::string>& args) {
   std::FILE* summary = o.json_path == "-" ? stderr : stdout;
   print_field_summary(run, o, summary);
   if (!o.json_path.empty() && !write_text_file(o.json_path, field_json(run, o))) return 2;
+  if (!o.svg_path.empty() && !write_text_file(o.svg_path, field_svg(run, o))) return 2;
   return code;
 }
 

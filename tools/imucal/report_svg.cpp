@@ -52,29 +52,6 @@ std::string temperature_summary(const TemperatureResult& t) {
   return s;
 }
 
-constexpr const char* kStyle =
-    "<style>"
-    ".t{font-size:22px;font-weight:bold;fill:#111}"
-    ".h{font-size:14px;font-weight:bold;fill:#222}"
-    ".k{font-size:13px;font-weight:bold;fill:#333}"
-    ".v{font-size:13px;fill:#222}"
-    ".lg{font-size:11.5px;fill:#333}"
-    ".n{font-size:11px;fill:#444}"
-    ".ax{font-size:12px;fill:#333}"
-    ".cap{font-size:11.5px;fill:#555}"
-    ".g{stroke:#e4e4e4;stroke-width:1}"
-    ".gl{font-size:9px;fill:#999}"
-    ".tk{stroke:#555;stroke-width:1}"
-    ".fr{fill:none;stroke:#555;stroke-width:1}"
-    ".b{fill:#ffc940;fill-opacity:0.22}"
-    ".bn{font-size:9px;fill:#8d6e00;text-anchor:middle}"
-    ".bs{fill:#ef6c00;fill-opacity:0.35}"
-    ".bsn{font-size:9px;font-weight:bold;fill:#bf360c;text-anchor:middle}"
-    ".s{fill:none;stroke-width:1;stroke-linejoin:round}"
-    ".d{fill:#1565c0;fill-opacity:0.85;stroke:#fff;stroke-width:1}"
-    ".dn{font-size:8.5px;font-weight:bold;fill:#fff;text-anchor:middle}"
-    "</style>\n";
-
 }  // namespace
 
 double title_block(Page& page, const Run& run, const Options& options) {
@@ -208,17 +185,7 @@ std::string report_svg(const Run& run, const Options& options, const std::vector
   y = mag_section(page, y, run, options, samples);
   y = temperature_section(page, y, run, options);
 
-  const std::string height = coord(std::ceil(y));
-  std::string svg = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + coord(kWidth) + "\" height=\"" +
-         height + "\" viewBox=\"0 0 " + coord(kWidth) + " " + height +
-         "\" font-family=\"DejaVu Sans, Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
-  svg += "<title>imucal calibration report</title>\n";
-  svg += kStyle;
-  svg += "<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n";
-  svg += page.str();
-  svg += "</svg>\n";
-  return svg;
+  return svg_document(page, y, "imucal calibration report");
 }
 
 }  // namespace imucal::cli

@@ -33,6 +33,30 @@ inline constexpr const char* kAfterColour = "#1565c0";
 inline constexpr const char* kMissingColour = "#c62828";
 inline constexpr const char* kCoveredColour = "#2e7d32";
 
+// The page's classes: titles, labels, numbers, grid, frames, rest bands, series, dots.
+inline constexpr const char* kPageStyle =
+    "<style>"
+    ".t{font-size:22px;font-weight:bold;fill:#111}"
+    ".h{font-size:14px;font-weight:bold;fill:#222}"
+    ".k{font-size:13px;font-weight:bold;fill:#333}"
+    ".v{font-size:13px;fill:#222}"
+    ".lg{font-size:11.5px;fill:#333}"
+    ".n{font-size:11px;fill:#444}"
+    ".ax{font-size:12px;fill:#333}"
+    ".cap{font-size:11.5px;fill:#555}"
+    ".g{stroke:#e4e4e4;stroke-width:1}"
+    ".gl{font-size:9px;fill:#999}"
+    ".tk{stroke:#555;stroke-width:1}"
+    ".fr{fill:none;stroke:#555;stroke-width:1}"
+    ".b{fill:#ffc940;fill-opacity:0.22}"
+    ".bn{font-size:9px;fill:#8d6e00;text-anchor:middle}"
+    ".bs{fill:#ef6c00;fill-opacity:0.35}"
+    ".bsn{font-size:9px;font-weight:bold;fill:#bf360c;text-anchor:middle}"
+    ".s{fill:none;stroke-width:1;stroke-linejoin:round}"
+    ".d{fill:#1565c0;fill-opacity:0.85;stroke:#fff;stroke-width:1}"
+    ".dn{font-size:8.5px;font-weight:bold;fill:#fff;text-anchor:middle}"
+    "</style>\n";
+
 // --- Text and numbers ------------------------------------------------------------------------
 
 inline std::string printf_string(const char* format, ...) __attribute__((format(printf, 1, 2)));
@@ -264,6 +288,21 @@ class PathBuilder {
   Last last_ = Last::kNone;
 };
 
+// The page as an SVG document: y pixels high, titled, with the page's classes and a white ground.
+inline std::string svg_document(const Page& page, double y, std::string_view title) {
+  const std::string height = coord(std::ceil(y));
+  std::string svg = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
+  svg += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + coord(kWidth) + "\" height=\"" +
+         height + "\" viewBox=\"0 0 " + coord(kWidth) + " " + height +
+         "\" font-family=\"DejaVu Sans, Helvetica, Arial, sans-serif\" font-size=\"12\">\n";
+  svg += "<title>" + xml(title) + "</title>\n";
+  svg += kPageStyle;
+  svg += "<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n";
+  svg += page.str();
+  svg += "</svg>\n";
+  return svg;
+}
+
 // --- Scales and ticks ------------------------------------------------------------------------
 
 // Data to pixels along one axis, linear or log10.
@@ -353,7 +392,9 @@ inline Panel make_panel(double y, double h, double x_lo, double x_hi, double y_l
 struct TimeAxis {
   double lo = 0, hi = 1, offset = 0;
   bool valid = false;
+  std::string name;  // the axis title when not the input time's
   std::string label() const {
+    if (!name.empty()) return name;
     if (offset == 0) return "time (s)";
     return "time \u2212 t0 (s), t0 = " + printf_string("%.3f", offset) + " s";
   }
