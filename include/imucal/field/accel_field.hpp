@@ -131,7 +131,7 @@ class AccelField {
     again_ = false;
     candidate_ = false;
     solve_status_ = Status::kNotStarted;
-    solution_ok_ = solution_believed_ = false;
+    solution_ok_ = false;
     has_published_ = false;
     event_reason_ = 0;
     min_c_ = std::numeric_limits<Scalar>::infinity();
@@ -299,7 +299,6 @@ class AccelField {
           return after_solve();
         }
         solution_ok_ = true;
-        solution_believed_ = false;  // until the cells check it
         judge_ = Judgement{};
         row_ = 0;
         phase_ = Phase::kJudge;
@@ -483,14 +482,14 @@ class AccelField {
   // The chi-square(1) of a pose against the published model, with the model's variance and the
   // pose's.
   // The largest of three: against the published model; against the last solution of the cells
-  // that they checked (what the rests so far say, before it is published); and against the cell of
-  // the same pose (a rest within 2 degrees in the same band: what it read before, the model
-  // carrying the small difference of direction and temperature). The last two see a step long
-  // before a model is published.
+  // (what the rests so far say, before it is published or believed); and against the cell of the
+  // same pose (a rest within 2 degrees in the same band: what it read before, the model carrying
+  // the small difference of direction and temperature). The last two see a step long before a
+  // model is published.
   Scalar disagreement(const Pose& p) const {
     typename Ne::Vector j;
     Scalar against_model = Scalar(0);
-    if (solution_ok_ && solution_believed_) {
+    if (solution_ok_) {
       const Scalar es = residual(theta_, p.x, p.t, &j);
       against_model =
           es * es / (Scalar(1) / p.w + quadratic(solution_cov_, j) + curvature(solution_cov_));
@@ -637,7 +636,7 @@ class AccelField {
       sigma0_(kBiasX + i) = std::sqrt(s * s + c * c);
     }
     prior_sigma_ = sigma0_;  // what the rests determine is judged against the widened prior
-    solution_ok_ = solution_believed_ = false;  // it described the cells before the change
+    solution_ok_ = false;    // it described the cells before the change
     // The published model stays what the device applies until the cells support a new one, with
     // its bias's sigma widened alike: honest meanwhile, and the rests that follow agree with it.
     for (int i = 0; i < 3; ++i) {
@@ -730,7 +729,6 @@ class AccelField {
       }
       return AccelFieldEvent::kNone;
     }
-    solution_believed_ = true;
     int reason = -1;
     if (changed_) {
       reason = 3;
@@ -778,7 +776,6 @@ class AccelField {
   bool has_published_ = false, changed_ = false;
   bool restarted_ = false;    // the solve started again from the prior since the cells changed
   bool solution_ok_ = false;  // theta_ and solution_cov_ hold a solve's result
-  bool solution_believed_ = false;  // ... that the cells checked (consider_publishing())
   Scalar fit_chi2_ = Scalar(0);
   std::uint64_t solved_us_ = 0,
                 resolve_us_ = 0;  // the last solve's rest, and the interval  // the cells' weighted
