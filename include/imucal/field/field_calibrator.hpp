@@ -246,9 +246,7 @@ class FieldCalibrator {
     mag_reading_var_ = Scalar(0);
     mag_offered_us_ = 0;
     mag_first_ = mag_due_ = 0;
-    dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);
-    pose_n_ = 0u;
-    pose_dip_ = Scalar(0);
+    reset_dip();
     took_ = false;
     temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
     temperature_us_ = 0;
@@ -662,8 +660,7 @@ class FieldCalibrator {
         model_published(accel_, FieldSensor::kAccel, counts_.accel_updates);
     } else if (mag_.busy() && mag_.step() == AccelFieldEvent::kUpdated) {
       model_published(mag_, FieldSensor::kMag, counts_.mag_updates);
-      dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);  // the dip through the new model, from its rests
-      pose_n_ = 0u;
+      reset_dip();  // the dip through the new model, from its rests
     }
   }
 
@@ -717,11 +714,16 @@ class FieldCalibrator {
       ++pose_n_;
       pose_dip_ += (s - pose_dip_) / static_cast<Scalar>(pose_n_ < 50u ? pose_n_ : 50u);
     } else if (e == AccelFieldEvent::kChangeDetected) {
-      dip_n_ = dip_mean_ = dip_m2_ = Scalar(0);
-      pose_n_ = 0u;
+      reset_dip();
     }
     model_took(e, mag_, FieldSensor::kMag, p.t, counts_.mag_held, counts_.mag_implausible,
                counts_.mag_changes);
+  }
+
+  // The dip's statistics start again (a change, a new model, start()).
+  void reset_dip() {
+    dip_n_ = dip_mean_ = dip_m2_ = pose_dip_ = Scalar(0);
+    pose_n_ = 0u;
   }
 
   // The sine of the angle between the field through the published model and the plane normal to
