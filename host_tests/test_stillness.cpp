@@ -212,7 +212,7 @@ TEST(StillnessDetector, GlitchLeavesNoTraceFloat) {
         s.t_us = t;
         s.acc = a.cast<float>();
         s.gyro = u.cast<float>();
-        return acc.add(s, std::nanf(""), 0.0f, 10000u, saturated);
+        return acc.add(s, 10000u, saturated);
       });
 }
 TEST(StillnessDetector, GlitchLeavesNoTraceDouble) {
@@ -223,7 +223,7 @@ TEST(StillnessDetector, GlitchLeavesNoTraceDouble) {
         s.t_us = t;
         s.acc = a;
         s.gyro = u;
-        return acc.add(s, std::nan(""), 0.0, 10000u, saturated);
+        return acc.add(s, 10000u, saturated);
       });
 }
 TEST(StillnessDetector, GlitchLeavesNoTraceCounts) {

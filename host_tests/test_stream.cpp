@@ -181,6 +181,34 @@ TEST(StreamChecks, AClockResetNeedsARunOfOrderedSamples) {
   EXPECT_TRUE(w.went_back(520000, 50000, 3));
 }
 
+// A temperature in fixed point (1/4096 deg C): from a float's bits exactly what rounding the
+// exact product half away from zero gives, on either scalar type; saturated far out of range.
+TEST(StreamChecks, TemperaturesInFixedPointRoundAsTheExactProduct) {
+  sim::Random rng(41);
+  for (int k = 0; k < 200000; ++k) {
+    // Readings over the range and beyond, and values on and beside the rounding ties.
+    float t = static_cast<float>(rng.uniform(-300.0, 300.0));
+    if (k % 4 == 1) t = static_cast<float>(std::floor(rng.uniform(-1e6, 1e6)) + 0.5) / 4096.0f;
+    if (k % 4 == 2) t = std::nextafter(t, k % 8 == 2 ? 1e9f : -1e9f);
+    if (k % 4 == 3) t = static_cast<float>(rng.uniform(-1e-3, 1e-3));
+    const double exact = std::round(static_cast<double>(t) * 4096.0);
+    ASSERT_EQ(detail::to_temperature_q_bits(t), static_cast<std::int32_t>(exact)) << t;
+    ASSERT_EQ(detail::to_temperature_q_float(t), static_cast<std::int32_t>(exact)) << t;
+    ASSERT_EQ(detail::to_temperature_q(static_cast<double>(t)), static_cast<std::int32_t>(exact));
+  }
+  for (auto* q : {&detail::to_temperature_q_bits, &detail::to_temperature_q_float}) {
+    EXPECT_EQ(q(0.0f), 0);
+    EXPECT_EQ(q(-0.0f), 0);
+    EXPECT_EQ(q(1e-40f), 0);  // subnormal
+    EXPECT_EQ(q(std::numeric_limits<float>::infinity()), detail::kTemperatureQMax);
+    EXPECT_EQ(q(-3e5f), -detail::kTemperatureQMax);
+    EXPECT_EQ(q(262143.98f), 1073741760);  // the largest float below saturation
+  }
+  EXPECT_EQ(detail::to_temperature_q(-std::numeric_limits<double>::infinity()),
+            -detail::kTemperatureQMax);
+  EXPECT_EQ(detail::to_temperature_q(150.0f), 614400);
+  EXPECT_EQ(detail::from_temperature_q<float>(614400), 150.0f);
+}
 TEST(StreamChecks, RateWindowsOfOneSecond) {
   RateWatch r;
   r.restart();
@@ -557,6 +585,17 @@ struct SegmenterSink {
 };
 
 // 100 Hz: still for still_s, then a turn at `rate` (rad/s about z) for turn_s, then still.
+// A sample as the front end passes it on: step_us after the previous one, temperature_c against a
+// reference of 0 deg C.
+template <typename S>
+CheckedSample<S> checked(std::uint32_t step_us, double temperature_c) {
+  CheckedSample<S> c;
+  c.step_us = step_us;
+  c.temperature = static_cast<S>(temperature_c);
+  c.temperature_q = detail::to_temperature_q(temperature_c);
+  return c;
+}
+
 template <typename S>
 void feed_rest_turn_rest(Segmenter<S, 8>& seg, SegmenterSink<S>& sink, sim::Random& rng,
                          const Vector3<double>& bias, double still_s, double turn_s, double rate,
@@ -571,7 +610,7 @@ void feed_rest_turn_rest(Segmenter<S, 8>& seg, SegmenterSink<S>& sink, sim::Rand
     if (turning) w(2) += rate;
     s.gyro = w.cast<S>();
     s.acc = (Vector3<double>(0.1, -0.2, 9.8) + 0.01 * rng.normal3()).cast<S>();
-    ASSERT_TRUE(seg.add(s, S(25), S(0), k == 0 && t == 10000u ? 0u : 10000u, false, sink));
+    ASSERT_TRUE(seg.add(s, checked<S>(k == 0 && t == 10000u ? 0u : 10000u, 25.0), sink));
   }
 }
 
@@ -636,7 +675,7 @@ TEST(Segmenter, ChangingTheBiasMovesWhatIsHeldExactly) {
     s.t_us = tb;
     s.gyro = 0.002 * rb.normal3() - bias;
     s.acc = Vector3<double>(0.1, -0.2, 9.8) + 0.01 * rb.normal3();
-    ASSERT_TRUE(b.add(s, 25.0, 0.0, k == 0 ? 0u : 10000u, false, sb));
+    ASSERT_TRUE(b.add(s, checked<double>(k == 0 ? 0u : 10000u, 25.0), sb));
   }
   ASSERT_TRUE(b.end(sb));
   ASSERT_EQ(sa.rests.size(), 1u);

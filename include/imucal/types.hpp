@@ -50,6 +50,91 @@ inline bool is_nan(double x) {
   std::memcpy(&b, &x, sizeof b);
   return (b & 0x7FFFFFFFFFFFFFFFull) > 0x7FF0000000000000ull;
 }
+
+// x as the scalar type, without the runtime's 64-bit conversion routines.
+template <typename Scalar>
+Scalar to_scalar(std::int64_t x) {
+  const std::int32_t low = static_cast<std::int32_t>(x);
+  if (x == low) return static_cast<Scalar>(low);  // one conversion, correctly rounded
+  const std::int32_t hi = static_cast<std::int32_t>(x >> 32);
+  const std::uint32_t lo = static_cast<std::uint32_t>(x);
+  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
+}
+template <typename Scalar>
+Scalar to_scalar(std::uint64_t x) {
+  const std::uint32_t hi = static_cast<std::uint32_t>(x >> 32);
+  const std::uint32_t lo = static_cast<std::uint32_t>(x);
+  if (hi == 0) return static_cast<Scalar>(lo);
+  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
+}
+
+// Whether the scalar type's arithmetic is in hardware (an FPU, or a host): there, a float
+// operation costs about what an integer one does; elsewhere each is a runtime call.
+template <typename Scalar>
+constexpr bool hardware_float() {
+#if defined(__x86_64__) || defined(__i386__) || defined(__aarch64__)
+  return true;
+#elif defined(__ARM_FP)
+  return sizeof(Scalar) == 4 ? (__ARM_FP & 4) != 0 : (__ARM_FP & 8) != 0;
+#elif defined(__riscv_flen)
+  return static_cast<int>(sizeof(Scalar)) * 8 <= __riscv_flen;
+#else
+  return false;
+#endif
+}
+
+// Temperatures travel the per-sample path in fixed point, 1/4096 deg C (kTemperatureQ): one
+// conversion a reading, then integer compares and sums, the float work once a sub-block.
+constexpr std::int32_t kTemperatureQ = 4096;
+// Beyond this (in 1/4096 deg C; 262,144 deg C) a reading saturates, infinity included.
+constexpr std::int32_t kTemperatureQMax = 1 << 30;
+
+// t (not NaN) x 4096, rounded half away from zero, saturated at +-kTemperatureQMax, from the
+// float's bits with no float arithmetic (a core without an FPU pays no runtime call).
+inline std::int32_t to_temperature_q_bits(float t) {
+  std::uint32_t b;
+  std::memcpy(&b, &t, sizeof b);
+  const std::int32_t e = static_cast<std::int32_t>((b >> 23) & 0xFFu);
+  const std::uint32_t m =
+      (b & 0x7FFFFFu) | 0x800000u;  // |t| = m 2^(e - 150), t 4096 = m 2^(e - 138)
+  std::int32_t q;
+  if (e == 0) {
+    q = 0;  // zero or subnormal
+  } else if (e >= 145) {
+    q = kTemperatureQMax;  // m 2^7 >= 2^30 already (infinity too)
+  } else if (e >= 138) {
+    q = static_cast<std::int32_t>(m << (e - 138));
+  } else {
+    const std::int32_t sh = 138 - e;
+    q = sh > 24 ? 0 : static_cast<std::int32_t>((m + (1u << (sh - 1))) >> sh);
+  }
+  return (b >> 31) != 0u ? -q : q;
+}
+// The same with float arithmetic: the product (exact: a power of two), truncated, its fraction
+// (exact) rounded.
+inline std::int32_t to_temperature_q_float(float t) {
+  const float x = t * static_cast<float>(kTemperatureQ);
+  if (!(x < static_cast<float>(kTemperatureQMax))) return kTemperatureQMax;
+  if (!(x > -static_cast<float>(kTemperatureQMax))) return -kTemperatureQMax;
+  std::int32_t i = static_cast<std::int32_t>(x);
+  const float fraction = x - static_cast<float>(i);
+  if (fraction >= 0.5f) ++i;
+  if (fraction <= -0.5f) --i;
+  return i;
+}
+// Whichever of the two is cheaper on this core: the same result.
+inline std::int32_t to_temperature_q(float t) {
+  return hardware_float<float>() ? to_temperature_q_float(t) : to_temperature_q_bits(t);
+}
+inline std::int32_t to_temperature_q(double t) {
+  if (!(std::fabs(t) * kTemperatureQ < static_cast<double>(kTemperatureQMax)))
+    return t < 0 ? -kTemperatureQMax : kTemperatureQMax;
+  return static_cast<std::int32_t>(std::round(t * kTemperatureQ));
+}
+template <typename Scalar>
+Scalar from_temperature_q(std::int32_t q) {
+  return static_cast<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
+}
 }  // namespace detail
 
 // Every coefficient finite (no NaN, no infinity).

@@ -284,8 +284,7 @@ class Calibrator {
       }
       return initial_rest_sample(in, c.dt(), result);
     }
-    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.step_us, c.acc_saturated,
-                        *this)) {
+    if (!segmenter_.add(s, c, *this)) {
       // Not taken: a reading this far off is no acceleration a hand makes. The previous
       // sample stays the reference, so the interval spans the refused one.
       return checks_.refuse_glitch();
@@ -316,9 +315,7 @@ class Calibrator {
       }
       return initial_rest_sample(s, c.dt(), result);
     }
-    if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
-    if (!detail::is_nan(c.temperature))
-      segmenter_.add_raw_temperature(c.temperature, checks_.temperature().ref());
+    if (!segmenter_.add_raw(f, c, *this)) return checks_.refuse_glitch();
     checks_.accept(f);
     if (pose_store_full_reported_ && result == Status::kOk) {
       pose_store_full_reported_ = false;

@@ -250,6 +250,9 @@ class FieldCalibrator {
     took_ = false;
     temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
     temperature_us_ = 0;
+    temp_batch_q_ = 0;
+    temp_batch_n_ = 0;
+    temps_seen_ = 0;
     doubt_ = Scalar(0);
     if (!valid_) return Status::kInvalidArgument;
     const Scalar k = settings.gyro_per_rad_s;
@@ -353,7 +356,7 @@ class FieldCalibrator {
     accel_noise_axis_ = settings.accel_noise / Scalar(3);
     gyro_cue_ = has_published_;
     monitor_.reset(monitor_settings(gyro_cue_));
-    rests_seen_ = 0;
+    rests_seen_ = temps_seen_ = 0;
     detector_temperature_ = temperature_;
     return result;
   }
@@ -364,7 +367,7 @@ class FieldCalibrator {
   Status add(const ImuSample<Scalar>& s) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add(s);
-    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us, st, s.temperature);
+    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us, st);
     return st;
   }
 
@@ -372,7 +375,7 @@ class FieldCalibrator {
   Status add_raw(const RawFrame& f, Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add_raw(f, temperature);
-    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us, st, temperature);
+    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us, st);
     return st;
   }
 
@@ -612,7 +615,33 @@ class FieldCalibrator {
     std::uint32_t group = 0;               // rests between motions share a group
   };
 
-  void after_sample(std::uint32_t t_us, Status st, Scalar temperature) {
+  // The readings of the batch since the last call smoothed over temperature_seconds (a reading's
+  // noise times the model's slope would otherwise be an error of the bias applied), without the
+  // lag of a plain moving mean on a warming board: twice the moving mean less its own moving mean
+  // follows a ramp exactly. The batch's mean stands for its readings (a batch is short beside
+  // temperature_seconds).
+  void smooth_temperature() {
+    const Scalar reading = detail::to_scalar<Scalar>(temp_batch_q_) *
+                           Scalar(1.0 / detail::kTemperatureQ) / static_cast<Scalar>(temp_batch_n_);
+    temp_batch_q_ = 0;
+    temp_batch_n_ = 0;
+    const std::uint64_t since = elapsed_us_ - temperature_us_;
+    temperature_us_ = elapsed_us_;
+    if (detail::is_nan(temperature_) || since > 600000000u) {
+      temp_mean_ = temp_mean2_ = temperature_ = reading;
+    } else {
+      Scalar w = static_cast<Scalar>(static_cast<std::uint32_t>(since)) * temperature_weight_;
+      if (w > Scalar(1)) w = Scalar(1);
+      temp_mean_ += w * (reading - temp_mean_);
+      temp_mean2_ += w * (temp_mean_ - temp_mean2_);
+      temperature_ = Scalar(2) * temp_mean_ - temp_mean2_;
+    }
+    // The detector removes the published bias at the temperature now.
+    if (has_published_ && !(std::fabs(temperature_ - detector_temperature_) <= Scalar(0.25)))
+      set_detector_bias();
+  }
+
+  void after_sample(std::uint32_t t_us, Status st) {
     took_ = false;
     if (!clock_started_) {
       clock_started_ = true;
@@ -620,25 +649,14 @@ class FieldCalibrator {
       elapsed_us_ += static_cast<std::uint32_t>(t_us - last_t_us_);
     }
     last_t_us_ = t_us;
-    if (!std::isnan(temperature) && st != Status::kTemperatureImplausible) {
-      // The readings smoothed over temperature_seconds (a reading's noise times the model's
-      // slope would otherwise be an error of the bias applied), without the lag of a plain
-      // moving mean on a warming board: twice the moving mean less its own moving mean follows
-      // a ramp exactly.
-      const std::uint64_t since = elapsed_us_ - temperature_us_;
-      temperature_us_ = elapsed_us_;
-      if (std::isnan(temperature_) || since > 600000000u) {
-        temp_mean_ = temp_mean2_ = temperature_ = temperature;
-      } else {
-        Scalar w = static_cast<Scalar>(static_cast<std::uint32_t>(since)) * temperature_weight_;
-        if (w > Scalar(1)) w = Scalar(1);
-        temp_mean_ += w * (temperature - temp_mean_);
-        temp_mean2_ += w * (temp_mean_ - temp_mean2_);
-        temperature_ = Scalar(2) * temp_mean_ - temp_mean2_;
-      }
-      // The detector removes the published bias at the temperature now.
-      if (has_published_ && !(std::fabs(temperature_ - detector_temperature_) <= Scalar(0.25)))
-        set_detector_bias();
+    // Each temperature the front end took, summed in fixed point, smoothed once a batch.
+    const TemperatureMean<Scalar>& readings = monitor_.temperatures();
+    if (readings.count() != temps_seen_) {
+      temps_seen_ = readings.count();
+      temp_batch_q_ += readings.last_q();
+      ++temp_batch_n_;
+      if (detail::is_nan(temperature_) || elapsed_us_ - temperature_us_ >= kTemperatureBatchUs)
+        smooth_temperature();
     }
     if (monitor_.rests_found() != rests_seen_) {
       rests_seen_ = monitor_.rests_found();
@@ -1051,7 +1069,7 @@ class FieldCalibrator {
     event(FieldEventKind::kUpdated, why, t, chi2);
     if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
       monitor_.reset(monitor_settings(true));
-      rests_seen_ = 0;
+      rests_seen_ = temps_seen_ = 0;
       gyro_cue_ = true;
       pending_ = false;
     }
@@ -1111,6 +1129,11 @@ class FieldCalibrator {
   Scalar temperature_weight_ = Scalar(0);  // the smoothing's weight per microsecond
   std::uint32_t rests_seen_ = 0;           // the rest monitor's rests_found() taken so far
   Scalar temp_mean_ = Scalar(0), temp_mean2_ = Scalar(0);  // the moving mean, and its own
+  // The readings since the last smoothing (1/4096 deg C), smoothed every kTemperatureBatchUs.
+  static constexpr std::uint64_t kTemperatureBatchUs = 100000;
+  std::int64_t temp_batch_q_ = 0;
+  std::uint32_t temp_batch_n_ = 0;
+  std::uint32_t temps_seen_ = 0;  // the monitor's temperatures().count() taken so far
   bool clock_started_ = false;
   std::uint32_t last_t_us_ = 0;
   std::uint64_t elapsed_us_ = 0, filter_time_us_ = 0;

@@ -10,10 +10,10 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include "imucal/status.hpp"
-#include "imucal/stream/compensated_sum.hpp"
 #include "imucal/types.hpp"
 
 namespace imucal {
@@ -157,30 +157,40 @@ class RateWatch {
   std::uint32_t n_ = 0;   // and its samples
 };
 
-// Running mean of the temperature: re-centred on the first reading, compensated.
+// Running mean of the temperature: re-centred on the first reading, summed exactly in fixed point
+// (1/4096 deg C).
 template <typename Scalar>
 class TemperatureMean {
  public:
   void reset() { *this = TemperatureMean{}; }
-  void add(Scalar t) {
-    if (n_ == 0) ref_ = t;
-    compensated_add(sum_, comp_, t - ref_);
+  void add(Scalar t) { add_q(detail::to_temperature_q(t)); }
+  // A reading in 1/4096 deg C (detail::to_temperature_q()).
+  void add_q(std::int32_t q) {
+    if (n_ == 0) ref_q_ = q;
+    sum_q_ += q - ref_q_;
+    last_q_ = q;
     ++n_;
   }
   // The first reading: sums elsewhere (a block's, a rest's) are relative to it.
-  Scalar ref() const { return ref_; }
+  Scalar ref() const { return detail::from_temperature_q<Scalar>(ref_q_); }
+  std::int32_t ref_q() const { return ref_q_; }
+  // The latest reading (1/4096 deg C); count() tells when a new one came.
+  std::int32_t last_q() const { return last_q_; }
   // The readings so far, relative to ref(), summed.
-  Scalar sum() const { return sum_ + comp_; }
+  Scalar sum() const {
+    return detail::to_scalar<Scalar>(sum_q_) * Scalar(1.0 / detail::kTemperatureQ);
+  }
   std::uint32_t count() const { return n_; }
   // False if no reading came.
   bool mean(Scalar& out) const {
     if (n_ == 0) return false;
-    out = ref_ + (sum_ + comp_) / static_cast<Scalar>(n_);
+    out = ref() + sum() / static_cast<Scalar>(n_);
     return true;
   }
 
  private:
-  Scalar ref_ = Scalar(0), sum_ = Scalar(0), comp_ = Scalar(0);
+  std::int32_t ref_q_ = 0, last_q_ = 0;
+  std::int64_t sum_q_ = 0;
   std::uint32_t n_ = 0;
 };
 
@@ -233,7 +243,11 @@ template <typename Scalar>
 struct CheckedSample {
   std::uint32_t step_us = 0;       // since the previous sample taken (0: the stream starts here)
   Scalar temperature = Scalar(0);  // deg C; NaN: none, or ignored as implausible
-  bool acc_saturated = false;      // the accelerometer at full scale: the sample says no rest
+  // The same relative to the running mean's first reading, in 1/4096 deg C (if not NaN).
+  std::int32_t temperature_q = 0;
+  bool acc_saturated = false;  // the accelerometer at full scale: the sample says no rest
+
+  bool has_temperature() const { return !detail::is_nan(temperature); }
 
   Scalar dt() const { return static_cast<Scalar>(step_us) * Scalar(1e-6); }  // step_us in s
 };
@@ -252,18 +266,16 @@ class StreamChecks {
   void reset(const StreamSettings<Scalar>& s) {
     has_gyro_ = s.has_gyro;
     frozen_limit_us_ = static_cast<std::uint32_t>(s.frozen_seconds * Scalar(1e6));
-    temperature_min_ = s.temperature_min_c;
-    temperature_max_ = s.temperature_max_c;
+    temperature_min_q_ = detail::to_temperature_q(s.temperature_min_c);
+    temperature_max_q_ = detail::to_temperature_q(s.temperature_max_c);
     nominal_rate_ = s.nominal_rate_hz;
     check_rate_ = s.nominal_rate_hz > Scalar(0);
     rate_tolerance_ = s.rate_tolerance;
     clock_reset_samples_ = s.clock_reset_samples;
     acc_scale_.set(s.accel_min, s.accel_max);
     gyro_scale_.set(s.gyro_min, s.gyro_max);
-    acc_lo_ = int_floor(s.accel_min);
-    acc_hi_ = int_ceil(s.accel_max);
-    gyro_lo_ = int_floor(s.gyro_min);
-    gyro_hi_ = int_ceil(s.gyro_max);
+    set_counts_range(int_floor(s.accel_min), int_ceil(s.accel_max), acc_lo1_, acc_span_);
+    set_counts_range(int_floor(s.gyro_min), int_ceil(s.gyro_max), gyro_lo1_, gyro_span_);
     have_prev_ = false;
     restart_ = true;
     frozen_ = false;
@@ -313,11 +325,13 @@ class StreamChecks {
   template <class Sink>
   __attribute__((always_inline)) Status check(const RawFrame& f, Scalar temperature, Sink& sink,
                                               CheckedSample<Scalar>& out) {
-    const bool acc_saturated = f.acc[0] <= acc_lo_ || f.acc[0] >= acc_hi_ || f.acc[1] <= acc_lo_ ||
-                               f.acc[1] >= acc_hi_ || f.acc[2] <= acc_lo_ || f.acc[2] >= acc_hi_;
-    const bool gyro_saturated = f.gyro[0] <= gyro_lo_ || f.gyro[0] >= gyro_hi_ ||
-                                f.gyro[1] <= gyro_lo_ || f.gyro[1] >= gyro_hi_ ||
-                                f.gyro[2] <= gyro_lo_ || f.gyro[2] >= gyro_hi_;
+    // Saturated: at or beyond a limit, lo < x < hi failing as one unsigned compare per axis.
+    const bool acc_saturated =
+        (outside(f.acc[0], acc_lo1_, acc_span_) | outside(f.acc[1], acc_lo1_, acc_span_) |
+         outside(f.acc[2], acc_lo1_, acc_span_)) != 0;
+    const bool gyro_saturated =
+        (outside(f.gyro[0], gyro_lo1_, gyro_span_) | outside(f.gyro[1], gyro_lo1_, gyro_span_) |
+         outside(f.gyro[2], gyro_lo1_, gyro_span_)) != 0;
     return check_stream(f, temperature, gyro_saturated, acc_saturated, sink, out);
   }
 
@@ -341,9 +355,19 @@ class StreamChecks {
   }
   bool repeats(const RawFrame& f) const {
     const RawFrame& p = raw_prev_;
-    return (f.acc[0] == p.acc[0] && f.acc[1] == p.acc[1] && f.acc[2] == p.acc[2]) ||
-           (has_gyro_ && f.gyro[0] == p.gyro[0] && f.gyro[1] == p.gyro[1] &&
-            f.gyro[2] == p.gyro[2]);
+    const int acc = (f.acc[0] ^ p.acc[0]) | (f.acc[1] ^ p.acc[1]) | (f.acc[2] ^ p.acc[2]);
+    const int gyro = (f.gyro[0] ^ p.gyro[0]) | (f.gyro[1] ^ p.gyro[1]) | (f.gyro[2] ^ p.gyro[2]);
+    return acc == 0 || (has_gyro_ && gyro == 0);
+  }
+
+  // The counts strictly between lo and hi, as x - lo1 < span in unsigned arithmetic.
+  static void set_counts_range(std::int32_t lo, std::int32_t hi, std::int32_t& lo1,
+                               std::uint32_t& span) {
+    lo1 = lo + 1;
+    span = hi - lo > 1 ? static_cast<std::uint32_t>(hi - lo - 1) : 0u;
+  }
+  static int outside(std::int32_t x, std::int32_t lo1, std::uint32_t span) {
+    return static_cast<std::uint32_t>(x - lo1) >= span ? 1 : 0;
   }
 
   // The checks of the stream itself, after the readings' own.
@@ -398,9 +422,12 @@ class StreamChecks {
       restart_ = false;
       rate_.restart();
     }
+    std::int32_t temperature_q = 0;
     if (!detail::is_nan(temperature)) {  // NaN: no temperature sensor
-      if (temperature >= temperature_min_ && temperature <= temperature_max_) {
-        temperature_.add(temperature);
+      const std::int32_t q = detail::to_temperature_q(temperature);
+      if (q >= temperature_min_q_ && q <= temperature_max_q_) {
+        temperature_.add_q(q);
+        temperature_q = q - temperature_.ref_q();
       } else {
         ++counts_.temperature_bad;
         temperature = std::numeric_limits<Scalar>::quiet_NaN();
@@ -419,6 +446,7 @@ class StreamChecks {
     }
     out.step_us = static_cast<std::uint32_t>(step);
     out.temperature = temperature;
+    out.temperature_q = temperature_q;
     out.acc_saturated = acc_saturated;
     return result;
   }
@@ -499,9 +527,11 @@ class StreamChecks {
   FullScale<Scalar> acc_scale_{}, gyro_scale_{};
   std::uint32_t frozen_us_ = 0, frozen_limit_us_ = 0;
   RawFrame raw_prev_{};
-  // The full scale for 16-bit counts: a count at or beyond a limit is saturated.
-  std::int32_t acc_lo_ = -65536, acc_hi_ = 65536, gyro_lo_ = -65536, gyro_hi_ = 65536;
-  Scalar temperature_min_ = Scalar(0), temperature_max_ = Scalar(0);
+  // The full scale for 16-bit counts: a count at or beyond a limit (lo, hi) is saturated; kept as
+  // lo + 1 and the span hi - lo - 1 of the counts that are not.
+  std::int32_t acc_lo1_ = -65535, gyro_lo1_ = -65535;
+  std::uint32_t acc_span_ = 131071, gyro_span_ = 131071;
+  std::int32_t temperature_min_q_ = 0, temperature_max_q_ = 0;  // the range, 1/4096 deg C
   Scalar nominal_rate_ = Scalar(0), rate_tolerance_ = Scalar(0);
   bool check_rate_ = false;  // nominal_rate_ > 0 (a flag: no float compare per sample)
   int clock_reset_samples_ = 3;

@@ -105,9 +105,7 @@ class RestMonitor {
     const Status result = checks_.check(s, *this, c);
     if (result != Status::kOk && !sample_taken(result)) return result;
     if (!started_) start(s.acc);
-    if (!segmenter_.add(s, c.temperature, checks_.temperature().ref(), c.step_us, c.acc_saturated,
-                        *this))
-      return checks_.refuse_glitch();
+    if (!segmenter_.add(s, c, *this)) return checks_.refuse_glitch();
     checks_.accept(s);
     return result;
   }
@@ -125,9 +123,7 @@ class RestMonitor {
     if (!started_)
       start(Vector3<Scalar>(static_cast<Scalar>(f.acc[0]), static_cast<Scalar>(f.acc[1]),
                             static_cast<Scalar>(f.acc[2])));
-    if (!segmenter_.add_raw(f, c.step_us, c.acc_saturated, *this)) return checks_.refuse_glitch();
-    if (!detail::is_nan(c.temperature))
-      segmenter_.add_raw_temperature(c.temperature, checks_.temperature().ref());
+    if (!segmenter_.add_raw(f, c, *this)) return checks_.refuse_glitch();
     checks_.accept(f);
     return result;
   }
@@ -157,6 +153,8 @@ class RestMonitor {
   const RestMonitorSettings<Scalar>& settings() const { return settings_; }
   // What the stream did wrong, by kind, and the samples refused.
   const StreamCounts& stream_counts() const { return checks_.counts(); }
+  // The temperatures the front end took (in range), since reset().
+  const TemperatureMean<Scalar>& temperatures() const { return checks_.temperature(); }
   std::uint32_t samples_refused() const { return checks_.refused(); }
   // The raw gyro reading at zero rate now: the latest rest's mean, or the setting before any.
   Vector3<Scalar> gyro_rest_reading() const { return -segmenter_.gyro_bias(); }

@@ -26,6 +26,7 @@
 #include <limits>
 
 #include "imucal/stream/blocks.hpp"
+#include "imucal/stream/checks.hpp"
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/stream/stillness.hpp"
 #include "imucal/stream/sub_block.hpp"
@@ -125,14 +126,14 @@ class Segmenter {
     block_ = Block{};
   }
 
-  // One checked sample in the scalar type: step_us after the previous one (0: the stream starts
-  // here), the temperature NaN if none (temp_ref what block temperatures are relative to),
-  // acc_saturated: the accelerometer says nothing. False: a glitch, nothing changed.
+  // One checked sample in the scalar type (c: what the front end made of it: the step after the
+  // previous one, 0 if the stream starts here; whether the accelerometer says nothing; the
+  // temperature). False: a glitch, nothing changed.
   template <class Sink>
-  __attribute__((always_inline)) bool add(const ImuSample<Scalar>& s, Scalar temperature,
-                                          Scalar temp_ref, std::uint32_t step_us,
-                                          bool acc_saturated, Sink& sink) {
-    if (!float_.add(s, temperature, temp_ref, step_us, acc_saturated)) return false;
+  __attribute__((always_inline)) bool add(const ImuSample<Scalar>& s,
+                                          const CheckedSample<Scalar>& c, Sink& sink) {
+    if (!float_.add(s, c.step_us, c.acc_saturated)) return false;
+    if (c.has_temperature()) float_.add_temperature(c.temperature_q);
     if (const SubBlockStats<Scalar>* done = float_.done()) {
       sub_block_done(*done, sink);
       float_.release_done();
@@ -147,10 +148,11 @@ class Segmenter {
   // One checked frame of 16-bit counts (integer work only, but once a sub-block); as add().
   // A stream is either readings or frames: one kind from start() on.
   template <class Sink>
-  __attribute__((always_inline)) bool add_raw(const RawFrame& f, std::uint32_t step_us,
-                                              bool acc_saturated, Sink& sink) {
+  __attribute__((always_inline)) bool add_raw(const RawFrame& f, const CheckedSample<Scalar>& c,
+                                              Sink& sink) {
     raw_mode_ = true;
-    if (!raw_.add(f, step_us, acc_saturated)) return false;
+    if (!raw_.add(f, c.step_us, c.acc_saturated)) return false;
+    if (c.has_temperature()) raw_.add_temperature(c.temperature_q);
     if (const SubBlockStats<Scalar>* done = raw_.done()) {
       sub_block_done(*done, sink);
       raw_.release_done();
@@ -160,10 +162,6 @@ class Segmenter {
         raw_.energy_full())
       close_sub_block(sink);
     return true;
-  }
-  // A temperature for the frame added last.
-  void add_raw_temperature(Scalar temperature, Scalar temp_ref) {
-    raw_.add_temperature(temperature, temp_ref);
   }
 
   // The open sub-block goes through the detector into the blocks now (before a cut, at the end).

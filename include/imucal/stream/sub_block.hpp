@@ -29,6 +29,10 @@
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/types.hpp"
 
+#if defined(__ARM_FEATURE_SAT)
+#include <arm_acle.h>
+#endif
+
 namespace imucal {
 
 // Most samples in one sub-block: the integer sums' bounds hold for this many 16-bit samples.
@@ -83,6 +87,26 @@ struct SubBlockStats {
   }
 };
 
+// A sub-block's temperatures, in 1/4096 deg C relative to the stream's reference: summed exactly
+// (at most kMaxSubBlockSamples readings within 2^30 / kMaxSubBlockSamples of it; a farther one,
+// which the range check does not let through, is clamped), converted once a sub-block.
+struct SubBlockTemperature {
+  std::int32_t sum = 0;
+  std::uint32_t n = 0;
+
+  void clear() { sum = 0, n = 0; }
+  void add(std::int32_t q) {
+    constexpr std::int32_t kMax = (1 << 30) / kMaxSubBlockSamples;
+    sum += q > kMax ? kMax : (q < -kMax ? -kMax : q);
+    ++n;
+  }
+  template <typename Scalar>
+  void finish(SubBlockStats<Scalar>& s) const {
+    s.temp_sum = detail::from_temperature_q<Scalar>(sum);
+    s.temp_n = n;
+  }
+};
+
 // A sub-block that ended because a sample's state differed (the sample began the next one): the
 // accumulators keep it here until the segmenter takes it, once.
 template <typename Scalar>
@@ -103,23 +127,6 @@ struct FinishedSubBlock {
 
 namespace detail {
 
-// x as the scalar type, without the runtime's 64-bit conversion routines.
-template <typename Scalar>
-Scalar to_scalar(std::int64_t x) {
-  const std::int32_t low = static_cast<std::int32_t>(x);
-  if (x == low) return static_cast<Scalar>(low);  // one conversion, correctly rounded
-  const std::int32_t hi = static_cast<std::int32_t>(x >> 32);
-  const std::uint32_t lo = static_cast<std::uint32_t>(x);
-  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
-}
-template <typename Scalar>
-Scalar to_scalar(std::uint64_t x) {
-  const std::uint32_t hi = static_cast<std::uint32_t>(x >> 32);
-  const std::uint32_t lo = static_cast<std::uint32_t>(x);
-  if (hi == 0) return static_cast<Scalar>(lo);
-  return static_cast<Scalar>(hi) * Scalar(4294967296.0) + static_cast<Scalar>(lo);
-}
-
 // Saturating conversion of a non-negative limit to an unsigned 32-bit one.
 template <typename Scalar>
 std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
@@ -135,28 +142,18 @@ constexpr bool kLongMultiplyIsACall = true;
 constexpr bool kLongMultiplyIsACall = false;
 #endif
 
-// Whether the scalar type's arithmetic is in hardware (an FPU, or a host): there, converting a
-// sub-block's limits costs less than comparing them with the previous sub-block's.
-template <typename Scalar>
-constexpr bool hardware_float() {
-#if defined(__x86_64__) || defined(__i386__) || defined(__aarch64__)
-  return true;
-#elif defined(__ARM_FP)
-  return sizeof(Scalar) == 4 ? (__ARM_FP & 4) != 0 : (__ARM_FP & 8) != 0;
-#elif defined(__riscv_flen)
-  return static_cast<int>(sizeof(Scalar)) * 8 <= __riscv_flen;
-#else
-  return false;
-#endif
-}
-
 inline bool fits16(std::int32_t x) { return x >= -32768 && x <= 32767; }
 
-// a * b - c * d, exact (in 32 bits when the operands allow and a long multiply is a call).
-inline std::int64_t cross_term(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) {
-  if (kLongMultiplyIsACall && fits16(a) && fits16(b) && fits16(c) && fits16(d))
-    return static_cast<std::int64_t>(a * b) - static_cast<std::int64_t>(c * d);
-  return static_cast<std::int64_t>(a) * b - static_cast<std::int64_t>(c) * d;
+// acc += a * b - c * d, exact (in 32 bits when the operands allow and a long multiply is a call;
+// else two multiply-accumulates: |c| < 2^31 in every use, so -c does not overflow).
+inline void cross_add(std::int64_t& acc, std::int32_t a, std::int32_t b, std::int32_t c,
+                      std::int32_t d) {
+  if (kLongMultiplyIsACall && fits16(a) && fits16(b) && fits16(c) && fits16(d)) {
+    acc += static_cast<std::int64_t>(a * b) - static_cast<std::int64_t>(c * d);
+    return;
+  }
+  acc += static_cast<std::int64_t>(a) * b;
+  acc += static_cast<std::int64_t>(-c) * d;
 }
 
 // x as an unsigned 64-bit limit (NaN and values past 2^64: the largest), without the runtime's
@@ -173,7 +170,11 @@ std::uint64_t to_u64_limit(Scalar x) {
 }
 
 inline std::int32_t clamp16(std::int32_t x) {
+#if defined(__ARM_FEATURE_SAT)
+  return __ssat(x, 16);  // one instruction
+#else
   return x > 32767 ? 32767 : (x < -32768 ? -32768 : x);
+#endif
 }
 
 inline std::int32_t round_to_int(double x) {
@@ -226,10 +227,9 @@ class FloatSubBlock {
   const SubBlockStats<Scalar>* done() const { return done_.held(); }
   void release_done() { done_.release(); }
 
-  // One sample, step_us after the previous one (0: none before it). temperature NaN: none.
-  // False: a glitch (its accelerometer reading beyond the glitch limit): nothing changed.
-  bool add(const ImuSample<Scalar>& x, Scalar temperature, Scalar temp_ref, std::uint32_t step_us,
-           bool acc_saturated) {
+  // One sample, step_us after the previous one (0: none before it). False: a glitch (its
+  // accelerometer reading beyond the glitch limit): nothing changed.
+  bool add(const ImuSample<Scalar>& x, std::uint32_t step_us, bool acc_saturated) {
     // The cue: the deviation from the detector's moving mean.
     const Scalar d0 = x.acc(0) - mean_(0), d1 = x.acc(1) - mean_(1), d2 = x.acc(2) - mean_(2);
     const Scalar q0 = d0 * d0, q1 = d1 * d1, q2 = d2 * d2;
@@ -279,18 +279,18 @@ class FloatSubBlock {
       ++s_.intervals;
       s_.duration_us += step_us;
     }
-    if (!detail::is_nan(temperature)) {
-      s_.temp_sum += temperature - temp_ref;
-      ++s_.temp_n;
-    }
     if (s_.n == 0) s_.t_begin = x.t_us;
     s_.t_end = x.t_us;
     ++s_.n;
     return true;
   }
 
+  // A temperature for the sample added last (1/4096 deg C, relative to the stream's reference).
+  void add_temperature(std::int32_t q) { temp_.add(q); }
+
   SubBlockStats<Scalar> finish() const {
     SubBlockStats<Scalar> s = s_;
+    temp_.finish(s);
     s.moving_mean = mean_;
     if (s.n_acc > 0 && s.n_acc < s.n)
       s.acc_sum *= static_cast<Scalar>(s.n) / static_cast<Scalar>(s.n_acc);
@@ -302,10 +302,12 @@ class FloatSubBlock {
   void clear() {
     s_ = SubBlockStats<Scalar>{};
     s_.acc_ref = lim_.acc_ref;
+    temp_.clear();
   }
 
   SubBlockLimits<Scalar> lim_{};
   SubBlockStats<Scalar> s_{};
+  SubBlockTemperature temp_{};
   FinishedSubBlock<Scalar> done_{};
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> mean_ = Vector3<Scalar>::Zero();  // the moving mean, sample by sample
@@ -447,15 +449,15 @@ class RawSubBlock {
     energy_c_ += e_clipped;
     if (step_us != 0) {
       // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the
-      // earlier s of this sub-block: beta += P x s, gamma += P - k s (k the earlier intervals).
+      // earlier s of this sub-block: beta += P x s; gamma's sum of P - k s (k the earlier
+      // intervals) is 2 Q - (K - 1) P at the end, Q the sum of the earlier P (finish()).
       const std::int32_t s0 = u[0] + u_prev_[0], s1 = u[1] + u_prev_[1], s2 = u[2] + u_prev_[2];
-      const std::int32_t k = static_cast<std::int32_t>(intervals_);
-      x_[0] += detail::cross_term(p_[1], s2, p_[2], s1);
-      x_[1] += detail::cross_term(p_[2], s0, p_[0], s2);
-      x_[2] += detail::cross_term(p_[0], s1, p_[1], s0);
-      y_[0] += p_[0] - k * s0;
-      y_[1] += p_[1] - k * s1;
-      y_[2] += p_[2] - k * s2;
+      detail::cross_add(x_[0], p_[1], s2, p_[2], s1);
+      detail::cross_add(x_[1], p_[2], s0, p_[0], s2);
+      detail::cross_add(x_[2], p_[0], s1, p_[1], s0);
+      q_[0] += static_cast<std::uint32_t>(p_[0]);
+      q_[1] += static_cast<std::uint32_t>(p_[1]);
+      q_[2] += static_cast<std::uint32_t>(p_[2]);
       p_[0] += s0;
       p_[1] += s1;
       p_[2] += s2;
@@ -481,11 +483,8 @@ class RawSubBlock {
     return true;
   }
 
-  // A temperature for the last sample added (NaN: none).
-  void add_temperature(Scalar temperature, Scalar temp_ref) {
-    temp_sum_ += temperature - temp_ref;
-    ++temp_n_;
-  }
+  // A temperature for the sample added last (1/4096 deg C, relative to the stream's reference).
+  void add_temperature(std::int32_t q) { temp_.add(q); }
 
   SubBlockStats<Scalar> finish() const {
     SubBlockStats<Scalar> s;
@@ -530,14 +529,13 @@ class RawSubBlock {
         s.seg.alpha(i) =
             Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
         s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
-        s.seg.gamma(i) = g * static_cast<Scalar>(y_[i]);
+        s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i));
       }
       s.seg.duration = duration;
       if (!db_zero_) s.seg.add_bias(db_);
     }
     s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
-    s.temp_sum = temp_sum_;
-    s.temp_n = temp_n_;
+    temp_.finish(s);
     return s;
   }
 
@@ -558,16 +556,26 @@ class RawSubBlock {
     return static_cast<std::int32_t>((static_cast<std::int64_t>(d) * weight_q16_) >> 16);
   }
 
+  // Sum over the intervals of P - k s: 2 Q - (K - 1) P, which fits 32 bits as the sum does (the
+  // terms are taken modulo 2^32, so their own range does not matter).
+  std::int32_t gamma_sum(int i) const {
+    const std::uint32_t k1 = intervals_ - 1u;
+    return static_cast<std::int32_t>(2u * q_[i] - k1 * static_cast<std::uint32_t>(p_[i]));
+  }
+
+  // Written out member by member: a loop here becomes a call to memset, costlier than the stores.
   void clear() {
-    for (int i = 0; i < 3; ++i) s1_[i] = u1_[i] = p_[i] = y_[i] = 0;
+    s1_[0] = s1_[1] = s1_[2] = 0;
+    u1_[0] = u1_[1] = u1_[2] = 0;
+    p_[0] = p_[1] = p_[2] = 0;
+    q_[0] = q_[1] = q_[2] = 0;
     x_[0] = x_[1] = x_[2] = 0;
     c_[0] = c_[1] = c_[2] = 0;
     step0_ = 0;
     dev_ = energy_ = 0;
     dev_c_ = energy_c_ = 0;
     n_ = n_acc_ = intervals_ = duration_us_ = 0;
-    temp_sum_ = Scalar(0);
-    temp_n_ = 0;
+    temp_.clear();
   }
 
   SubBlockLimits<Scalar> lim_{};
@@ -575,7 +583,8 @@ class RawSubBlock {
   Scalar db2_ = Scalar(0);                        // |db_|^2
   bool db_zero_ = true, converted_ = false;
   std::int32_t ref_[3] = {0, 0, 0}, bias_[3] = {0, 0, 0}, u_prev_[3] = {0, 0, 0};
-  std::int32_t s1_[3] = {0, 0, 0}, u1_[3] = {0, 0, 0}, p_[3] = {0, 0, 0}, y_[3] = {0, 0, 0};
+  std::int32_t s1_[3] = {0, 0, 0}, u1_[3] = {0, 0, 0}, p_[3] = {0, 0, 0};
+  std::uint32_t q_[3] = {0, 0, 0};  // the sum of P before each interval (modulo 2^32)
   std::int64_t x_[3] = {0, 0, 0}, c_[3] = {0, 0, 0};
   std::uint32_t step0_ = 0;
   std::uint64_t dev_ = 0, dev_c_ = 0, energy_ = 0, energy_max_ = 0;  // dev_: 1/256 count^2
@@ -584,8 +593,7 @@ class RawSubBlock {
   std::int32_t va_q8_ = 0, ee_q4_ = 0, accel_max_q8_ = 0, energy_max_q4_ = 0, weight_q16_ = 0;
   std::uint32_t n_ = 0, n_acc_ = 0, intervals_ = 0, duration_us_ = 0;
   std::uint32_t t_begin_ = 0, t_end_ = 0;
-  Scalar temp_sum_ = Scalar(0);
-  std::uint32_t temp_n_ = 0;
+  SubBlockTemperature temp_{};
   bool use_gyro_ = true, still_ = true, sub_still_ = true;
   FinishedSubBlock<Scalar> done_{};
 };
