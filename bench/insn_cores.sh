@@ -5,8 +5,9 @@
 # (the recording's frames at 100 Hz, and a 1 kHz stream), of add_fifo() per frame in batches of 25,
 # of the whole solve and its largest slice, of Corrector::apply(), and sizeof(Calibrator<float>).
 # Then a second table: the field calibrator (bench_field_insn, a simulated life at 100 Hz with
-# the magnetometer at 50 Hz): FieldCalibrator::add_raw() per frame at rest and moving and its
-# largest call (a rest judged); the same with the temperature once a second rather than with every
+# the magnetometer at 50 Hz): FieldCalibrator::add_raw() per frame at rest and moving with no
+# solve under way, the mean of the calls that run a slice of a model's solve, and its largest
+# call (a rest judged or a slice); the same with the temperature once a second rather than with every
 # frame; add_mag() per call, sizeof(FieldCalibrator<float>) and the stack its calls took (painted;
 # not on the M0+).
 # Each core's instruction-count programs are built in build/insn/CORE (-O2, assertions off, as
@@ -56,13 +57,14 @@ for core in "${cores[@]}"; do
     # The field calibrator: add_raw()'s ordinary frames, its largest call of any kind (the calls
     # that judge a rest have regions of their own), add_mag() in a rest / with none open.
     f_rest=$(row "field: add_raw(), still" 4) f_moving=$(row "field: add_raw(), moving" 4)
+    f_slice=$(row "field: add_raw(), a solve slice" 4)
     f_largest=$(printf '%s\n' "$table" | awk -F'|' 'index($2, "field: add_raw()") { gsub(/ /, "", $5); if ($5 + 0 > m) m = $5 + 0 } END { print m }')
     f_1hz="$(row "temperature at 1 Hz: add_raw(), still" 4) / $(row "temperature at 1 Hz: add_raw(), moving" 4)"
     f_mag_rest=$(row "field: add_mag(), in a rest" 4) f_mag_none=$(row "field: add_mag(), no rest" 4)
     f_size=$(printf '%s\n' "$table" | sed -n 's/.*field: start.*sizeof \([0-9]*\).*/\1/p')
     f_stack=$(printf '%s\n' "$table" | awk -F'|' 'index($2, "field add_raw(), add_mag()") { sub(/^ +/, "", $3); sub(/ +$/, "", $3); print $3 }')
     case $f_stack in [0-9]*) ;; *) f_stack="(not measured)" ;; esac
-    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_largest | $f_1hz | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
+    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_slice / $f_largest | $f_1hz | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
   fi
   [ $protocol = 1 ] || continue
   rest=$(row "add(): still" 4) moving=$(row "add(): moving" 4) init=$(row "add(): initial" 4)
@@ -79,7 +81,7 @@ for core in "${cores[@]}"; do
 done
 if [ $field = 1 ]; then
   [ $protocol = 1 ] && echo
-  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / largest call (a rest judged) | the same, temperature at 1 Hz instead of every frame: at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) | stack of add_raw() (painted) |"
+  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / a call with a solve slice (mean) / largest call | the same, temperature at 1 Hz instead of every frame: at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) | stack of add_raw() (painted) |"
   echo "| --- | --- | --- | --- | ---: | ---: |"
   printf '%s' "$field_rows"
 fi

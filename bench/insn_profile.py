@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""Where a benchmark's instructions go, by source line: runs an instruction-count program under
+r"""Where a benchmark's instructions go, by source line: runs an instruction-count program under
 QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the instructions
 of the functions whose names match FUNCTIONS by the project's source line they come from (code
 inlined from Eigen or the C++ library counts at the project line that called it; a function
@@ -13,7 +13,16 @@ the number of regions profiled: the first REGIONS regions if given, else all. Ma
 bench_stream_insn's first 51175 regions are the add() calls, one per sample of the Xsens
 recording: with '.' as FUNCTIONS, where add()'s instructions go, averaged over every sample
 (initial rest, rests and moves together). The programs are built with -g1 (bench/insn_cores.sh
-builds them in build/insn/CORE).
+builds them in build/insn/CORE). Built with -DIMUCAL_BENCH_RAW_FIRST, bench_stream_insn's first
+51175 regions are add_raw()'s instead; built with -DIMUCAL_BENCH_PROFILE_FIELD, bench_field_insn's
+regions are the field calibrator's add_raw() calls alone (REGIONS 0: all of them). For example:
+
+  cmake -S . -B build/prof/m0plus -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g -DIMUCAL_BENCH_PROFILE_FIELD" \
+    -DCMAKE_TOOLCHAIN_FILE=$PWD/toolchains/cortex-m0plus.cmake -DIMUCAL_BUILD_TESTS=OFF \
+    -DIMUCAL_BUILD_BENCH=ON -DIMUCAL_BUILD_INSN_BENCH=ON
+  cmake --build build/prof/m0plus --target bench_field_insn
+  bench/insn_profile.py m0plus build/prof/m0plus/bench/bench_field_insn . 0
 """
 import os
 import re

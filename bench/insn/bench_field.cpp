@@ -7,8 +7,11 @@
 // about the vertical, tremor in the hand, a knock that steps the gyro bias, a passing magnet, the
 // magnetometer at 50 Hz, a temperature with every frame) is fed one 16-bit frame at a time, each
 // add_raw() its own region, named by what the call did:
-//   - still: the body truly still (the life's rests), nothing handed out or judged in the call;
+//   - still: the body truly still (the life's rests), nothing handed out or judged in the call,
+//     and no model's solve under way (the per-frame cost a device pays for ever);
 //   - moving: everything else (moves, hand use, the turn, tremor, the knock), the same;
+//   - a solve slice: a call made while a model's solve was under way (it runs one slice, or adds
+//     the magnetometer's share of a rest taken earlier), nothing handed out or judged;
 //   - a rest judged: the calls in which the rest monitor handed out a piece of a rest or the
 //     calibrator judged one (its counts changed), named by what it decided (taken, refused as
 //     turning, held, published): the largest calls.
@@ -111,6 +114,19 @@ const char* judged_name(const FieldCounts& a, const FieldCounts& b) {
 }
 }  // namespace
 
+// Built with IMUCAL_BENCH_PROFILE_FIELD defined, only the first calibrator's add_raw() calls are
+// counted regions (one per frame, for bench/insn_profile.py); add_mag() and the 1 Hz variant run
+// outside them.
+#ifdef IMUCAL_BENCH_PROFILE_FIELD
+#define IMUCAL_OTHER_BEGIN() ((void)0)
+#define IMUCAL_OTHER_END() ((void)0)
+#define IMUCAL_OTHER_ANNOUNCE(name) ((void)(name))
+#else
+#define IMUCAL_OTHER_BEGIN() imucal_bench_begin()
+#define IMUCAL_OTHER_END() imucal_bench_end()
+#define IMUCAL_OTHER_ANNOUNCE(name) bench_announce(name)
+#endif
+
 int main() {
   const sim::LifePlan plan = bench_plan();
   sim::LifeSimulator life(plan);
@@ -129,6 +145,7 @@ int main() {
     }
     g_temperature = s.temperature_new ? s.imu.temperature : std::numeric_limits<float>::quiet_NaN();
     const FieldCounts before = calibrator.counts();
+    const bool solving = calibrator.accel_field().busy() || calibrator.mag_field().busy();
     bench::stack_paint();
     imucal_bench_begin();
     const Status st = calibrator.add_raw(g_frame, g_temperature);
@@ -140,6 +157,8 @@ int main() {
     const FieldCounts& after = calibrator.counts();
     if (decisions(after) != decisions(before)) {
       bench_announce(judged_name(before, after));
+    } else if (solving) {
+      bench_announce("field: add_raw(), a solve slice, per call");
     } else {
       bench_announce(t.still ? "field: add_raw(), still, per frame"
                              : "field: add_raw(), moving, per frame");
@@ -149,13 +168,13 @@ int main() {
       g_mag = s.mag;
       const bool resting = calibrator.monitor().resting();
       bench::stack_paint();
-      imucal_bench_begin();
+      IMUCAL_OTHER_BEGIN();
       calibrator.add_mag(g_mag);
-      imucal_bench_end();
+      IMUCAL_OTHER_END();
       bench::stack_measure();
       ++mags;
-      bench_announce(resting ? "field: add_mag(), in a rest, per call (50 Hz)"
-                             : "field: add_mag(), no rest open, per call (50 Hz)");
+      IMUCAL_OTHER_ANNOUNCE(resting ? "field: add_mag(), in a rest, per call (50 Hz)"
+                                    : "field: add_mag(), no rest open, per call (50 Hz)");
     }
     FieldEvent<float> e;
     while (calibrator.take_event(e)) ++events;
@@ -166,15 +185,19 @@ int main() {
       g_temperature = std::numeric_limits<float>::quiet_NaN();
     }
     const std::uint32_t before_1hz = decisions(calibrator_1hz.counts());
+    const bool solving_1hz =
+        calibrator_1hz.accel_field().busy() || calibrator_1hz.mag_field().busy();
     bench::stack_paint();
-    imucal_bench_begin();
+    IMUCAL_OTHER_BEGIN();
     calibrator_1hz.add_raw(g_frame, g_temperature);
-    imucal_bench_end();
+    IMUCAL_OTHER_END();
     bench::stack_measure();
-    bench_announce(decisions(calibrator_1hz.counts()) != before_1hz
-                       ? "field, temperature at 1 Hz: add_raw(), a rest handed out or judged"
-                   : t.still ? "field, temperature at 1 Hz: add_raw(), still, per frame"
-                             : "field, temperature at 1 Hz: add_raw(), moving, per frame");
+    IMUCAL_OTHER_ANNOUNCE(decisions(calibrator_1hz.counts()) != before_1hz
+                              ? "field, temperature at 1 Hz: add_raw(), a rest handed out or judged"
+                          : solving_1hz
+                              ? "field, temperature at 1 Hz: add_raw(), a solve slice, per call"
+                          : t.still ? "field, temperature at 1 Hz: add_raw(), still, per frame"
+                                    : "field, temperature at 1 Hz: add_raw(), moving, per frame");
     while (calibrator_1hz.take_event(e)) {
     }
   }

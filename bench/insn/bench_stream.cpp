@@ -150,6 +150,11 @@ bool raw_paths() {
 }  // namespace
 
 int main() {
+#ifdef IMUCAL_BENCH_RAW_FIRST
+  // Built with this defined, the integer path runs alone: its first 51,175 regions are the
+  // recording's add_raw() calls, for bench/insn_profile.py.
+  return raw_paths() ? 0 : 1;
+#endif
   // The add() series starts here rather than just before the loop: there, the call changed the
   // register allocation of the add() code GCC inlines into main, and with it the counts (by one
   // instruction either way on some samples). Here they come out the same as without measuring.
