@@ -355,9 +355,10 @@ class StreamChecks {
   }
   bool repeats(const RawFrame& f) const {
     const RawFrame& p = raw_prev_;
-    const int acc = (f.acc[0] ^ p.acc[0]) | (f.acc[1] ^ p.acc[1]) | (f.acc[2] ^ p.acc[2]);
-    const int gyro = (f.gyro[0] ^ p.gyro[0]) | (f.gyro[1] ^ p.gyro[1]) | (f.gyro[2] ^ p.gyro[2]);
-    return acc == 0 || (has_gyro_ && gyro == 0);
+    // Short-circuit: a live sensor differs at the first axis almost always.
+    return (f.acc[0] == p.acc[0] && f.acc[1] == p.acc[1] && f.acc[2] == p.acc[2]) ||
+           (has_gyro_ && f.gyro[0] == p.gyro[0] && f.gyro[1] == p.gyro[1] &&
+            f.gyro[2] == p.gyro[2]);
   }
 
   // The counts strictly between lo and hi, as x - lo1 < span in unsigned arithmetic.

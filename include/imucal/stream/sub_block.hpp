@@ -148,7 +148,12 @@ inline bool fits16(std::int32_t x) { return x >= -32768 && x <= 32767; }
 // else two multiply-accumulates: |c| < 2^31 in every use, so -c does not overflow).
 inline void cross_add(std::int64_t& acc, std::int32_t a, std::int32_t b, std::int32_t c,
                       std::int32_t d) {
-  if (kLongMultiplyIsACall && fits16(a) && fits16(b) && fits16(c) && fits16(d)) {
+  // All four within 16 bits: one test on the four offset by 2^15.
+  const std::uint32_t offset = 0x8000u;
+  if (kLongMultiplyIsACall &&
+      (((static_cast<std::uint32_t>(a) + offset) | (static_cast<std::uint32_t>(b) + offset) |
+        (static_cast<std::uint32_t>(c) + offset) | (static_cast<std::uint32_t>(d) + offset)) >>
+       16) == 0u) {
     acc += static_cast<std::int64_t>(a * b) - static_cast<std::int64_t>(c * d);
     return;
   }
