@@ -209,6 +209,50 @@ TEST(StreamChecks, TemperaturesInFixedPointRoundAsTheExactProduct) {
   EXPECT_EQ(detail::to_temperature_q(150.0f), 614400);
   EXPECT_EQ(detail::from_temperature_q<float>(614400), 150.0f);
 }
+
+// Whatever the limits, a temperature that is not finite is ignored, and readings at the far ends
+// of the widest range sum without overflow.
+TEST(StreamChecks, TemperatureLimitsAsWideAsTheyComeStillRefuseInfinity) {
+  struct NoSink {
+    void stream_cut() {}
+    void sensor_froze() {}
+  } sink;
+  StreamSettings<float> set;
+  set.temperature_min_c = -std::numeric_limits<float>::infinity();
+  set.temperature_max_c = std::numeric_limits<float>::max();
+  ASSERT_TRUE(set.valid());
+  StreamChecks<float> checks;
+  checks.reset(set);
+  checks.set_gap_limit(1000000u);
+  const float readings[] = {-4096.0f,
+                            4096.0f,
+                            std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(),
+                            1e9f,
+                            25.0f};
+  const bool taken[] = {true, true, false, false, false, true};
+  std::uint32_t t = 0;
+  for (int k = 0; k < 6; ++k) {
+    RawFrame f;
+    f.t_us = t += 10000u;
+    f.acc[0] = static_cast<std::int16_t>(k);  // not frozen
+    CheckedSample<float> c;
+    const Status st = checks.check(f, readings[k], sink, c);
+    ASSERT_TRUE(sample_taken(st) || st == Status::kOk) << k;
+    EXPECT_EQ(c.has_temperature(), taken[k]) << k;
+    EXPECT_EQ(st == Status::kTemperatureImplausible, !taken[k]) << k;
+    if (taken[k]) {
+      EXPECT_EQ(c.temperature_q,
+                detail::to_temperature_q(readings[k]) - detail::to_temperature_q(-4096.0f));
+    }
+    checks.accept(f);
+  }
+  EXPECT_EQ(checks.temperature().count(), 3u);
+  float mean = 0;
+  ASSERT_TRUE(checks.temperature().mean(mean));
+  EXPECT_NEAR(static_cast<double>(mean), 25.0 / 3.0, 1e-3);
+  EXPECT_EQ(checks.counts().temperature_bad, 3u);
+}
 TEST(StreamChecks, RateWindowsOfOneSecond) {
   RateWatch r;
   r.restart();

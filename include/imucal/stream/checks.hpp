@@ -166,7 +166,10 @@ class TemperatureMean {
   void add(Scalar t) { add_q(detail::to_temperature_q(t)); }
   // A reading in 1/4096 deg C (detail::to_temperature_q()).
   void add_q(std::int32_t q) {
-    if (n_ == 0) ref_q_ = q;
+    if (!has_ref_) {  // the first reading ever: the count wraps, the reference stays
+      ref_q_ = q;
+      has_ref_ = true;
+    }
     sum_q_ += q - ref_q_;
     last_q_ = q;
     ++n_;
@@ -191,6 +194,7 @@ class TemperatureMean {
  private:
   std::int32_t ref_q_ = 0, last_q_ = 0;
   std::int64_t sum_q_ = 0;
+  bool has_ref_ = false;
   std::uint32_t n_ = 0;
 };
 
@@ -203,8 +207,9 @@ struct StreamSettings {
   Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
   Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period
   Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
-  // Temperature readings outside this range (deg C), or not finite (NaN means "no sensor"), are
-  // ignored and counted; the sample is taken.
+  // Temperature readings outside this range (deg C; compared in 1/4096 deg C, limits beyond
+  // +-4096 deg C taken as +-4096), or not finite (NaN means "no sensor"), are ignored and counted;
+  // the sample is taken.
   Scalar temperature_min_c = Scalar(-60), temperature_max_c = Scalar(150);
   // Full scale, raw units: a reading at or beyond a limit is saturated. Set them to the ADC's
   // clip values (0 and 65535 for unsigned 16-bit counts, -32768 and 32767 for signed ones, or
@@ -266,8 +271,10 @@ class StreamChecks {
   void reset(const StreamSettings<Scalar>& s) {
     has_gyro_ = s.has_gyro;
     frozen_limit_us_ = static_cast<std::uint32_t>(s.frozen_seconds * Scalar(1e6));
-    temperature_min_q_ = detail::to_temperature_q(s.temperature_min_c);
-    temperature_max_q_ = detail::to_temperature_q(s.temperature_max_c);
+    // Limits within +-4096 deg C: a reading that saturated the conversion (infinity) is outside
+    // them, and two readings inside differ by at most 2^25 (an int32 sum, SubBlockTemperature).
+    temperature_min_q_ = clamp_temperature_limit(detail::to_temperature_q(s.temperature_min_c));
+    temperature_max_q_ = clamp_temperature_limit(detail::to_temperature_q(s.temperature_max_c));
     nominal_rate_ = s.nominal_rate_hz;
     check_rate_ = s.nominal_rate_hz > Scalar(0);
     rate_tolerance_ = s.rate_tolerance;
@@ -359,6 +366,11 @@ class StreamChecks {
     return (f.acc[0] == p.acc[0] && f.acc[1] == p.acc[1] && f.acc[2] == p.acc[2]) ||
            (has_gyro_ && f.gyro[0] == p.gyro[0] && f.gyro[1] == p.gyro[1] &&
             f.gyro[2] == p.gyro[2]);
+  }
+
+  static std::int32_t clamp_temperature_limit(std::int32_t q) {
+    constexpr std::int32_t kLimit = 4096 * detail::kTemperatureQ;
+    return q > kLimit ? kLimit : (q < -kLimit ? -kLimit : q);
   }
 
   // The counts strictly between lo and hi, as x - lo1 < span in unsigned arithmetic.
