@@ -29,10 +29,6 @@
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/types.hpp"
 
-#if defined(__ARM_FEATURE_SAT)
-#include <arm_acle.h>
-#endif
-
 namespace imucal {
 
 // Most samples in one sub-block: the integer sums' bounds hold for this many 16-bit samples.
@@ -176,7 +172,9 @@ std::uint64_t to_u64_limit(Scalar x) {
 
 inline std::int32_t clamp16(std::int32_t x) {
 #if defined(__ARM_FEATURE_SAT)
-  return __ssat(x, 16);  // one instruction
+  // One instruction. The builtin, not arm_acle.h's __ssat: GCC 12's macro converts its unsigned
+  // result to int32_t, a -Wsign-conversion warning in every includer.
+  return static_cast<std::int32_t>(__builtin_arm_ssat(x, 16));
 #else
   return x > 32767 ? 32767 : (x < -32768 ? -32768 : x);
 #endif
