@@ -84,16 +84,15 @@ struct SubBlockStats {
 };
 
 // A sub-block's temperatures, in 1/4096 deg C relative to the stream's reference: summed exactly
-// (at most kMaxSubBlockSamples readings within 2^30 / kMaxSubBlockSamples of it; a farther one,
-// which the range check does not let through, is clamped), converted once a sub-block.
+// in 32 bits (the front end's range check keeps each within 2^25 of the reference, so at most
+// kMaxSubBlockSamples of them within 2^30), converted once a sub-block.
 struct SubBlockTemperature {
   std::int32_t sum = 0;
   std::uint32_t n = 0;
 
   void clear() { sum = 0, n = 0; }
   void add(std::int32_t q) {
-    constexpr std::int32_t kMax = (1 << 30) / kMaxSubBlockSamples;
-    sum += q > kMax ? kMax : (q < -kMax ? -kMax : q);
+    sum += q;
     ++n;
   }
   template <typename Scalar>
