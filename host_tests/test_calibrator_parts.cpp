@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "imucal/calibrator/calibrator.hpp"
-#include "imucal/calibrator/move_store.hpp"
+#include "imucal/solve/move_store.hpp"
 #include "imucal/calibrator/pose_collection.hpp"
 #include "imucal/calibrator/solve_sequence.hpp"
 #include "imucal/sim/accel_sim.hpp"

@@ -36,7 +36,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "imucal/calibrator/move_store.hpp"
+#include "imucal/solve/move_store.hpp"
 #include "imucal/calibrator/pose_collection.hpp"
 #include "imucal/calibrator/settings.hpp"
 #include "imucal/calibrator/solve_sequence.hpp"

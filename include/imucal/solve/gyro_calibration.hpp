@@ -107,6 +107,27 @@ class GyroProblem {
     return pass<false, Accumulator>(p, nullptr, c, max_segments);
   }
 
+  // A move walked as its segments come, without keeping them (the field calibrator): start_move()
+  // with its start's gravity direction, add_segment() for each segment in order, end_move() with
+  // its end's: the same two rows as accumulate() over the stored move. data.bias_shift and
+  // refine_bias apply as there; data's segments and moves are not used.
+  void start_move(const Vector3<Scalar>& ga, Cursor& c) const {
+    c = Cursor{};
+    c.v = ga;
+    c.begun = true;
+  }
+  Status add_segment(const Vector& p, const GyroSegment<Scalar>& seg, Cursor& c) const {
+    if (!all_finite(p)) return Status::kNonFiniteInput;
+    const Matrix3<Scalar> m = gyro_matrix<Scalar>(p);
+    advance<true>(seg, m, GyroSegment<Scalar>::cofactor(m), data.bias_shift + p.template tail<3>(),
+                  refine_bias, c);
+    return Status::kOk;
+  }
+  template <class Acc>
+  Status end_move(const Vector& p, const Vector3<Scalar>& gb, Acc& ne, Cursor& c) const {
+    return finish_move<true>(p, gb, &ne, c);
+  }
+
   // The state of a sensitivity pass (sensitivity_slice()).
   struct Sensitivity {
     Cursor c{};

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// imucal/calibrator/move_store.hpp: the moves between poses as gyro segments (math.md section 4),
+// imucal/solve/move_store.hpp: the moves between poses as gyro segments (math.md section 4),
 // in a store of fixed capacity. The move in progress grows segment by segment, each merged with
 // the previous one while the merged one stays a small, nearly single-axis rotation (the path
 // angle and |alpha||beta| bounds); a pose ends it and it is recorded from its pose to the new
@@ -109,6 +109,25 @@ class MoveStore {
 
   // A move in progress that holds segments.
   bool in_move() const { return chain_from_ >= 0 && seg_count_ > move_first_; }
+  // A move is in progress (a pose to start from, not dropped since), with segments or not.
+  bool chained() const { return chain_from_ >= 0; }
+
+  // For a store that hands its move on as it grows (the rest monitor) rather than recording it:
+  // the oldest segment of the move in progress, removed. Only once a later segment follows it
+  // (the newest may still grow), or with newest_too once nothing more is added. False when none
+  // is ready, or once moves were recorded (arrive() ended one).
+  bool pop_oldest(GyroSegment<Scalar>& out, bool newest_too) {
+    if (move_count_ != 0 || seg_count_ - move_first_ < (newest_too ? 1 : 2)) return false;
+    out = segments_[move_first_];
+    for (int k = move_first_ + 1; k < seg_count_; ++k) segments_[k - 1] = segments_[k];
+    --seg_count_;
+    return true;
+  }
+  // Segments ready for pop_oldest(): all but the newest, or all with newest_too.
+  int ready(bool newest_too) const {
+    const int n = move_count_ != 0 ? 0 : seg_count_ - move_first_;
+    return newest_too ? n : (n > 1 ? n - 1 : 0);
+  }
 
   int move_count() const { return move_count_; }
   const GyroMove& move(int i) const { return moves_[i]; }
