@@ -20,13 +20,26 @@
 // 2 deg C/min moves the mean by 2 mg in a minute). A rest of at least min_rest_seconds of
 // stillness (the part trimmed before motion included) is handed out by take(), once. Real
 // vibration (a running engine) raises the accelerometer's variance: such periods are not rests.
+//
+// With MoveSegments > 0 and move bounds set (RestMonitorSettings::move_max_angle, _error), it also
+// hands on the moves between the rests as gyro segments, as they come (a move of any length in
+// fixed memory): a move begins at the end of each rest handed out and ends at the next one, over
+// the blocks between them, shorter rests included. Its segments are merged while small in the
+// protocol's store (solve/move_store.hpp), and taken one by one (take_move_segment()), each with
+// the move's number; the owner walks them. move_from() says which rest a move began at and with
+// which zero-rate reading, move_complete() that it ended whole at a rest: not across a cut in the
+// stream (a gap, a clock reset, a frozen or saturated sensor), and never coarsened (its segments
+// not taken in time). A move's segments all include the bias of its start: blocks that come
+// after the zero-rate reading changed are moved back to it (exactly: GyroSegment::add_bias()).
 // Fixed memory, no allocation, no exceptions. Header-only.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
+#include "imucal/solve/move_store.hpp"
 #include "imucal/status.hpp"
 #include "imucal/stream/blocks.hpp"
 #include "imucal/stream/checks.hpp"
@@ -64,12 +77,20 @@ struct RestMonitorSettings : StreamSettings<Scalar>, SegmenterSettings<Scalar> {
   // An accelerometer reading further than this many noise sigmas (sqrt(accel_noise)) from the
   // detector's moving mean is a glitch: refused and counted (as CalibratorSettings::glitch_sigma).
   Scalar glitch_sigma = Scalar(1e5);
+  // The bounds a block must stay within to be one gyro segment of a move (raw units: path angle,
+  // and |alpha||beta|; as CalibratorSettings::segment_max_angle and _error over the gyro's scale
+  // and its cube). Infinite: no moves are kept.
+  Scalar move_max_angle = std::numeric_limits<Scalar>::infinity();
+  Scalar move_max_error = std::numeric_limits<Scalar>::infinity();
 };
 
-template <typename Scalar, int Queue = 4, int DelayBlocks = 8>
+template <typename Scalar, int Queue = 4, int DelayBlocks = 8, int MoveSegments = 0>
 class RestMonitor {
  public:
   static_assert(Queue >= 1, "room for at least one finished rest");
+  static_assert(MoveSegments >= 0, "no room for a negative number of segments");
+  // The move under way (MoveSegments > 0): at most MoveSegments segments not taken yet.
+  using Moves = MoveStore<Scalar, 1, (MoveSegments > 0 ? MoveSegments : 1)>;
 
   explicit RestMonitor(
       const RestMonitorSettings<Scalar>& settings = RestMonitorSettings<Scalar>()) {
@@ -89,6 +110,13 @@ class RestMonitor {
     after_motion_ = true;
     queue_.clear();
     dropped_ = emitted_ = 0;
+    if constexpr (MoveSegments > 0) {
+      keep_moves_ = valid_ && std::isfinite(settings.move_max_angle) &&
+                    std::isfinite(settings.move_max_error) && settings.move_max_angle > Scalar(0) &&
+                    settings.move_max_error > Scalar(0);
+      moves_ = KeptMoves{};
+      moves_.building.reset(settings.move_max_angle, settings.move_max_error);
+    }
     return valid_ ? Status::kOk : Status::kInvalidArgument;
   }
 
@@ -166,6 +194,65 @@ class RestMonitor {
     return Status::kOk;
   }
 
+  // ---- Moves (MoveSegments > 0, move bounds set) ----
+  // The oldest segment not taken yet, and the number of its move (from 1, in order): the rest of
+  // the move that ended at the latest rest handed out comes first, then the move under way's
+  // (all but its newest segment, which may still grow). False if none is ready.
+  bool take_move_segment(GyroSegment<Scalar>& out, std::uint32_t& move) {
+    if constexpr (MoveSegments > 0) {
+      if (moves_.ended.move != 0 && moves_.ended.store.pop_oldest(out, true)) {
+        move = moves_.ended.move;
+        return true;
+      }
+      if (moves_.under_way.move != 0 && moves_.building.pop_oldest(out, false)) {
+        move = moves_.under_way.move;
+        return true;
+      }
+    } else {
+      (void)out;
+      (void)move;
+    }
+    return false;
+  }
+  bool move_segment_ready() const {
+    if constexpr (MoveSegments > 0) {
+      return (moves_.ended.move != 0 && moves_.ended.store.ready(true) > 0) ||
+             (moves_.under_way.move != 0 && moves_.building.ready(false) > 0);
+    } else {
+      return false;
+    }
+  }
+  // Where move `move` began: the rest's first and last sample's timestamps
+  // (RestSummary::begin_us, end_us), and the bias (added) its segments include. False if it is
+  // neither the move under way nor the one that ended last.
+  bool move_from(std::uint32_t move, std::uint32_t& begin_us, std::uint32_t& end_us,
+                 Vector3<Scalar>& bias) const {
+    if constexpr (MoveSegments > 0) {
+      const MoveInfo* m = move == moves_.under_way.move ? &moves_.under_way
+                          : move == moves_.ended.move   ? &moves_.ended.info
+                                                        : nullptr;
+      if (move == 0 || m == nullptr) return false;
+      begin_us = m->from_begin;
+      end_us = m->from_end;
+      bias = m->bias;
+      return true;
+    } else {
+      (void)move, (void)begin_us, (void)end_us, (void)bias;
+      return false;
+    }
+  }
+  // Move `move` ended whole at the rest with these timestamps, and every segment of it was taken.
+  bool move_complete(std::uint32_t move, std::uint32_t begin_us, std::uint32_t end_us) const {
+    if constexpr (MoveSegments > 0) {
+      const EndedMove& e = moves_.ended;
+      return move != 0 && e.move == move && e.to_begin == begin_us && e.to_end == end_us &&
+             e.store.ready(true) == 0 && e.store.coarsenings() == 0;
+    } else {
+      (void)move, (void)begin_us, (void)end_us;
+      return false;
+    }
+  }
+
  private:
   using Block = SampleBlock<Scalar>;
   template <typename, int, int>
@@ -197,19 +284,53 @@ class RestMonitor {
   void stream_cut() {
     segmenter_.cut(*this);
     after_motion_ = true;
+    if constexpr (MoveSegments > 0) drop_move();
   }
   void sensor_froze() {
     segmenter_.discard();
     after_motion_ = true;
+    if constexpr (MoveSegments > 0) drop_move();
   }
 
   // ---- The segmenter's sink ----
-  const SegmentBounds<Scalar>& segment_bounds() const { return bounds_; }
-  void move_block(const Block&) { after_motion_ = true; }  // moves are not kept
+  const SegmentBounds<Scalar>& segment_bounds() const {
+    if constexpr (MoveSegments > 0) {
+      if (keep_moves_) return moves_.building.bounds();
+    }
+    return bounds_;
+  }
+  void move_block(const Block& b) {
+    after_motion_ = true;
+    if constexpr (MoveSegments > 0) add_to_move(b);
+  }
   void rest_ended(const Block& rest, bool long_enough) {
     const bool after_motion = after_motion_;
     after_motion_ = false;
-    if (!long_enough) return;
+    if (!long_enough) {
+      if constexpr (MoveSegments > 0) add_to_move(rest);  // a pause within the move
+      return;
+    }
+    if constexpr (MoveSegments > 0) {
+      if (keep_moves_) {
+        // The move under way, if it moved and was not dropped, ends at this rest (the rest of its
+        // segments wait to be taken); the next starts from it.
+        KeptMoves& k = moves_;
+        if (k.moved && k.building.chained()) {
+          k.ended.store = k.building;
+          k.ended.move = k.under_way.move;
+          k.ended.info = k.under_way;
+          k.ended.to_begin = rest.t_begin;
+          k.ended.to_end = rest.t_end;
+        }
+        k.building.reset(settings_.move_max_angle, settings_.move_max_error);
+        k.building.arrive(0, nullptr, nullptr);
+        k.moved = false;
+        k.under_way.move = ++k.count != 0 ? k.count : ++k.count;  // 0 stays "none"
+        k.under_way.from_begin = rest.t_begin;
+        k.under_way.from_end = rest.t_end;
+        k.under_way.bias = segmenter_.gyro_bias();
+      }
+    }
     segmenter_.learn_rest(rest);
     RestSummary<Scalar> out = rest.summary(segmenter_.gyro_bias(), checks_.temperature().ref());
     out.after_motion = after_motion;
@@ -230,6 +351,48 @@ class RestMonitor {
       std::numeric_limits<Scalar>::infinity(), std::numeric_limits<Scalar>::infinity()};
   Ring<RestSummary<Scalar>, Queue> queue_{};
   std::uint32_t dropped_ = 0, emitted_ = 0;
+  // A move: its number, the rest it began at (first and last sample's timestamps), the bias
+  // (added) its segments include.
+  struct MoveInfo {
+    std::uint32_t move = 0;  // 0: none
+    std::uint32_t from_begin = 0, from_end = 0;
+    Vector3<Scalar> bias = Vector3<Scalar>::Zero();
+  };
+  // The latest move that ended at a rest: its segments not taken yet, and that rest.
+  struct EndedMove {
+    Moves store{};
+    std::uint32_t move = 0;
+    MoveInfo info{};
+    std::uint32_t to_begin = 0, to_end = 0;
+  };
+  struct KeptMoves {
+    Moves building{};  // the move under way's segments not taken yet
+    MoveInfo under_way{};
+    bool moved = false;  // it holds or held a segment
+    EndedMove ended{};
+    std::uint32_t count = 0;  // moves begun
+  };
+  void add_to_move(const Block& b) {
+    if constexpr (MoveSegments > 0) {
+      if (!keep_moves_ || !moves_.building.chained()) return;
+      // The block's segment includes the segmenter's bias now; the move's, the one at its start.
+      const Vector3<Scalar> back = moves_.under_way.bias - segmenter_.gyro_bias();
+      if (back.isZero(Scalar(0))) {
+        moves_.building.add(b.seg, b.path);
+      } else {
+        GyroSegment<Scalar> g = b.seg;
+        g.add_bias(back);
+        moves_.building.add(g, b.path);
+      }
+      moves_.moved = true;
+    }
+  }
+  void drop_move() {
+    if constexpr (MoveSegments > 0) moves_.building.drop();
+  }
+  struct NoMoves {};
+  std::conditional_t<(MoveSegments > 0), KeptMoves, NoMoves> moves_{};
+  bool keep_moves_ = false;
 };
 
 }  // namespace imucal
