@@ -2930,7 +2930,8 @@ TEST(CliField, MagnetometerHardIronAndTheStoredOneKept) {
        at = page.find("<title>updated", at + 1))
     ++dots;
   unsigned updates = 0;
-  for (const Json& e : j["timeline"]) updates += e["kind"] == "updated" ? 1u : 0u;
+  for (const Json& e : j["timeline"])  // the biases' (the gyro's matrix is not drawn)
+    updates += e["kind"] == "updated" && e["sensor"] != "gyro_matrix" ? 1u : 0u;
   EXPECT_EQ(dots, updates);
   EXPECT_EQ(page.rfind("</svg>\n"), page.size() - 7);
   std::remove(svg.c_str());
@@ -2992,7 +2993,8 @@ TEST(CliXsens, FieldFromAWrongPriorConvergesToCalibrate) {
   CalibrationRecord record;
   std::string error;
   ASSERT_EQ(read_record_file(rec, record, error), 0) << error;
-  // The wrong prior: the same record, its biases moved by many of their sigmas.
+  // The wrong prior: the same record, its biases moved by many of their sigmas, and its gyro's
+  // misalignment and scale 5 mrad and 1 % off with a datasheet's sigmas (2 %, 20 mrad).
   const double gyro_off = 0.5 * kPi / 180.0 * test::kXsensCountsPerRadS;  // counts
   const double accel_off = 0.030 * 4070.0;                                // counts
   CalibrationRecord bad = record;
@@ -3000,6 +3002,34 @@ TEST(CliXsens, FieldFromAWrongPriorConvergesToCalibrate) {
     bad.calibration.gyro.params(kGyroBiasX + a) += static_cast<float>(gyro_off);
     bad.calibration.accel.params(kBiasX + a) += static_cast<float>(accel_off);
   }
+  for (int i = 0; i < kGyroMatrixParams; ++i) {
+    float& v = bad.calibration.gyro.params(i);
+    float& sd = bad.calibration.gyro.sigma(i);
+    if (i >= kGyroScaleX) {
+      sd = 0.02f * std::fabs(v);
+      v *= 1.01f;
+    } else {
+      sd = 0.02f;
+      v += 0.005f;
+    }
+  }
+  // Each of the gyro's nine within 2 combined sigmas of calibrate's.
+  const auto gyro_matrix_near = [&record](const Json& field, const char* name) {
+    const GyroCalibration<float>& g = record.calibration.gyro;
+    double worst = 0.0;
+    for (int i = 0; i < kGyroMatrixParams; ++i) {
+      const char* pn = kGyroParamNames[i];
+      const double fv = field["gyro_matrix"]["parameters"][pn]["value"];
+      const double fs = field["gyro_matrix"]["parameters"][pn]["sigma"];
+      const double cv = static_cast<double>(g.params(i)), cs = static_cast<double>(g.sigma(i));
+      EXPECT_LE(std::abs(fv - cv), 2 * std::hypot(fs, cs))
+          << name << " " << pn << ": field " << fv << " +- " << fs << ", calibrate " << cv << " +- "
+          << cs;
+      worst = std::max(worst, std::abs(fv - cv) / std::hypot(fs, cs));
+    }
+    std::printf("gyro matrix, %s: %s, within %.2f combined sigma of calibrate's\n", name,
+                field["gyro_matrix"]["published"].get<bool>() ? "published" : "the prior's", worst);
+  };
   std::uint8_t bytes[512];
   std::size_t size = 0;
   ASSERT_EQ(encode_record(bad, bytes, sizeof bytes, &size), Status::kOk);
@@ -3020,6 +3050,7 @@ TEST(CliXsens, FieldFromAWrongPriorConvergesToCalibrate) {
   // The right prior: kept.
   const Json right = replay(rec, "right");
   ASSERT_FALSE(right.is_discarded());
+  gyro_matrix_near(right, "right prior");
   EXPECT_LE(right["counts"]["changes"].get<int>(), 1);
   EXPECT_EQ(right["counts"]["accel_changes"], 0);
   EXPECT_EQ(right["counts"]["accel_held"], 0);
@@ -3043,6 +3074,12 @@ TEST(CliXsens, FieldFromAWrongPriorConvergesToCalibrate) {
   EXPECT_GE(moved["counts"]["accel_changes"].get<int>(), 1) << moved["counts"].dump();
   ASSERT_TRUE(moved["gyro_bias"]["published"].get<bool>());
   ASSERT_TRUE(moved["accel_bias"]["published"].get<bool>());
+  EXPECT_TRUE(moved["gyro_matrix"]["published"].get<bool>()) << moved["counts"].dump();
+  gyro_matrix_near(moved, "wrong prior");
+  std::printf("gyro matrix from the wrong prior: %s moves taken, %s refused, %s updates\n",
+              moved["counts"]["gyro_moves"].dump().c_str(),
+              moved["counts"]["gyro_moves_refused"].dump().c_str(),
+              moved["counts"]["gyro_matrix_updates"].dump().c_str());
   for (std::size_t a = 0; a < 3; ++a) {
     const double cv = cg[gyro_names[a]]["value"], cs = cg[gyro_names[a]]["sigma"];
     const double fv = moved["gyro_bias"]["value"][a], fs = moved["gyro_bias"]["sigma"];

@@ -288,12 +288,16 @@ class FieldBias:
 class Field:
     """What imucal.field() decided over a recording: the biases the device would apply at the end
     (the gyro's at the recording's last temperature; the accelerometer's and the magnetometer's
-    hard iron when their models ran, else None), the counts of rests and decisions, and every
-    event in order."""
+    hard iron when their models ran, else None), the gyro's misalignment and scale, the counts of
+    rests and decisions, and every event in order."""
 
     gyro_bias: FieldBias
     accel_bias: Optional[FieldBias]
     mag_hard_iron: Optional[FieldBias]
+    gyro_matrix: Parameters
+    """The gyro's misalignment and scale the device would apply (imucal.GYRO_PARAMETERS' first
+    nine): learned from the moves between rests when `gyro_matrix_published`, else the prior's."""
+    gyro_matrix_published: bool
     counts: Dict[str, int]
     timeline: List[Json] = field(repr=False)
     """Each decision: time_s, sensor, kind, reason, temperature_c, chi2, the published bias after
@@ -307,8 +311,10 @@ class Field:
     def _from_command(cls, json: Json, summary: str) -> Field:
         gyro = FieldBias._from_json(json["gyro_bias"])
         assert gyro is not None
+        matrix = json["gyro_matrix"]
         return cls(gyro, FieldBias._from_json(json.get("accel_bias")),
                    FieldBias._from_json(json.get("mag_hard_iron")),
+                   Parameters._from_json(matrix["parameters"]), bool(matrix["published"]),
                    {k: int(v) for k, v in json["counts"].items()}, list(json["timeline"]),
                    summary, json)
 

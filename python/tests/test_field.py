@@ -41,6 +41,9 @@ def test_results_are_the_json_as_arrays(bundled):
     assert np.array_equal(py.mag_hard_iron.value, j["mag_hard_iron"]["value"])
     assert py.mag_hard_iron.unit == "counts"
     assert py.counts == j["counts"] and py.counts["taken"] > 0
+    assert py.gyro_matrix.names == imucal.GYRO_PARAMETERS[:9]
+    assert py.gyro_matrix_published == j["gyro_matrix"]["published"]
+    assert py.gyro_matrix["s_x"] == j["gyro_matrix"]["parameters"]["s_x"]["value"]
     assert py.timeline == j["timeline"] and len(py.timeline) == j["events"]
     assert "gyro bias published" in py.summary
     with pytest.raises(ValueError):

@@ -90,6 +90,11 @@ struct FieldRun {
   double mag_ut_per_raw = kNaN;
   double hard_iron[3] = {kNaN, kNaN, kNaN}, hard_iron_sigma[3] = {kNaN, kNaN, kNaN};
   MagCalibration<float> mag{};
+  // The gyro's misalignment and scale the device applies (the prior's or published), with their
+  // sigmas, and whether the moves replaced the prior's.
+  bool gyro_matrix_published = false;
+  GyroVector<float> gyro_matrix = GyroVector<float>::Zero(),
+                    gyro_matrix_sigma = GyroVector<float>::Zero();
   std::map<std::string, StreamEvent> stream;  // refused and noted samples, by status
   std::vector<EventRow> timeline;             // the first kListed events
   std::deque<EventRow> last;                  // the last kShownLast events
@@ -258,7 +263,7 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
                                     static_cast<float>(s.mag[2])));
     FieldEvent<float> e;
     while (field->take_event(e)) {
-      if (e.sensor != FieldSensor::kMag)
+      if (e.sensor == FieldSensor::kGyro || e.sensor == FieldSensor::kAccel)
         e.value -= Vector3<float>::Constant(
             static_cast<float>(e.sensor == FieldSensor::kAccel ? run.accel_zero : run.gyro_zero));
       keep_event(e, run);
@@ -319,6 +324,14 @@ int run_field(Options& o, SampleReader& reader, Diagnostics& diag, const Calibra
   }
   for (const auto& kv : run.stream) in.events.push_back(kv.second);
   run.counts = field->counts();
+  {
+    TemperatureModel<float> unused;
+    Calibration<float> cal;
+    field->calibration(cal, unused);
+    run.gyro_matrix = cal.gyro.params;
+    run.gyro_matrix_sigma = cal.gyro.sigma;
+    run.gyro_matrix_published = field->gyro_field().has_published();
+  }
   Vector3<float> b;
   float sigma = 0;
   run.published = field->gyro_bias(b, &sigma);
@@ -379,16 +392,17 @@ std::string vec_text(const double* v, const char* format) {
 }
 
 // An event's bias in deg/s (the gyro's), mg (the accelerometer's) or uT (the magnetometer's hard
-// iron).
+// iron); the gyro's scales (gyro_matrix) as multiples of the nominal one.
 void print_event(std::FILE* out, const EventRow& e, double to_dps, double to_mg, double to_ut) {
   const std::string sensor = e.sensor;
-  const bool accel = sensor == "accel", mag = sensor == "mag";
-  const double k = accel ? to_mg : (mag ? to_ut : to_dps);
+  const bool accel = sensor == "accel", mag = sensor == "mag", matrix = sensor == "gyro_matrix";
+  const double k = accel ? to_mg : (mag ? to_ut : (matrix ? kDeg / to_dps : to_dps));
   const double v[3] = {e.bias[0] * k, e.bias[1] * k, e.bias[2] * k};
-  std::fprintf(
-      out, "  %9lu  %-6s %-15s %-12s %8s %10s  %s %s\n", static_cast<unsigned long>(e.time_s),
-      e.sensor, e.kind, e.reason, fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
-      vec_text(v, accel || mag ? "% .2f" : "% .5f").c_str(), accel ? "mg" : (mag ? "uT" : "deg/s"));
+  std::fprintf(out, "  %9lu  %-6s %-15s %-12s %8s %10s  %s %s\n",
+               static_cast<unsigned long>(e.time_s), e.sensor, e.kind, e.reason,
+               fmt("%.2f", e.temperature_c).c_str(), fmt("%.3g", e.chi2).c_str(),
+               vec_text(v, accel || mag ? "% .2f" : (matrix ? "% .5f" : "% .5f")).c_str(),
+               accel ? "mg" : (mag ? "uT" : (matrix ? "x nominal scale" : "deg/s")));
 }
 
 void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) {
@@ -497,6 +511,26 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
                    "(give the accelerometer's zero reading, --accel-zero 32768 for unsigned "
                    "16-bit counts, or its --accel-lsb-per-g)\n",
                    c.accel_implausible);
+  }
+
+  {  // the gyro's scales as multiples of the nominal one, misalignments in mrad
+    const double k = run.gyro_per_rad_s;
+    double sc[3], ss[3], mis[6], ms[6];
+    for (int a = 0; a < 3; ++a) {
+      sc[a] = static_cast<double>(run.gyro_matrix(kGyroScaleX + a)) * k;
+      ss[a] = static_cast<double>(run.gyro_matrix_sigma(kGyroScaleX + a)) * k;
+    }
+    for (int a = 0; a < 6; ++a) {
+      mis[a] = 1e3 * static_cast<double>(run.gyro_matrix(a));
+      ms[a] = 1e3 * static_cast<double>(run.gyro_matrix_sigma(a));
+    }
+    std::fprintf(out, "\ngyro misalignment and scale %s: %u moves taken, %u refused, %u updates\n",
+                 run.gyro_matrix_published ? "published" : "NOT published (the prior's)",
+                 run.counts.gyro_moves, run.counts.gyro_moves_refused,
+                 run.counts.gyro_matrix_updates);
+    std::fprintf(out, "  scale  %s x nominal\n", vec_pm(sc, ss, "% .5f").c_str());
+    std::fprintf(out, "  misalignment  %s  %s mrad\n", vec_pm(mis, ms, "% .2f").c_str(),
+                 vec_pm(mis + 3, ms + 3, "% .2f").c_str());
   }
 
   const double to_ut = run.mag_ut_per_raw;
@@ -726,7 +760,10 @@ std::string field_json(const FieldRun& run, const Options& o) {
                  {"mag_held", c.mag_held},
                  {"mag_changes", c.mag_changes},
                  {"mag_updates", c.mag_updates},
-                 {"mag_implausible", c.mag_implausible}};
+                 {"mag_implausible", c.mag_implausible},
+                 {"gyro_moves", c.gyro_moves},
+                 {"gyro_moves_refused", c.gyro_moves_refused},
+                 {"gyro_matrix_updates", c.gyro_matrix_updates}};
   Json bias = bias_json(run.published, gyro_unit_name(o.gyro_unit), run.bias, number(run.sigma),
                         run.temperature_c);
   bias["value_dps"] = vec3(scaled(run.bias, to_dps).v);
@@ -740,6 +777,14 @@ std::string field_json(const FieldRun& run, const Options& o) {
     j["filter_bias_at"] = {{"temperature_c", o.at_temperature},
                            {"value", vec3(run.filter_at_bias)},
                            {"sigma", number(run.filter_at_sigma)}};
+  }
+  {  // the gyro's misalignment and scale (rad/s per raw unit), the prior's until published
+    Json params;
+    for (int k = 0; k < kGyroMatrixParams; ++k)
+      params[kGyroParamNames[k]] = {
+          {"value", number(static_cast<double>(run.gyro_matrix(k)))},
+          {"sigma", number(static_cast<double>(run.gyro_matrix_sigma(k)))}};
+    j["gyro_matrix"] = {{"published", run.gyro_matrix_published}, {"parameters", params}};
   }
   if (run.accel_enabled) {
     Json a = bias_json(run.accel_published, accel_unit_name(o.accel_unit), run.accel_bias,

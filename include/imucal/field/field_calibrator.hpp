@@ -35,6 +35,11 @@
 // their mean fields and single readings in motion, the magnetometer's (mag_field.hpp); each is
 // judged, held and published by its own rules, its events carry its sensor. One call does at most
 // one of: taking a rest, the magnetometer's share of a rest taken before, one slice of a solve.
+// The moves between the rests the gyro's filter takes, each from the end of one rest to the start
+// of the next with nothing cut between, teach the gyro's misalignment and scale (gyro_field.hpp),
+// through the accelerometer's model: the rest monitor hands on their segments as they come, one
+// is walked a call (in the place of a solve slice); their publication is an event of its own
+// sensor (kGyroMatrix).
 //
 // Units: raw gyro units (the bias is ADDED to the raw reading, as in the calibration:
 // w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
@@ -48,6 +53,7 @@
 
 #include "imucal/field/accel_field.hpp"
 #include "imucal/field/bias_filter.hpp"
+#include "imucal/field/gyro_field.hpp"
 #include "imucal/field/mag_field.hpp"
 #include "imucal/models/calibration.hpp"
 #include "imucal/models/temperature_model.hpp"
@@ -107,6 +113,8 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
   // The magnetometer's hard and soft iron from the same rests' mean fields (mag_field.hpp); kept
   // when mag.counts_per_ut is set and add_mag() is fed.
   MagFieldSettings<Scalar> mag{};
+  // The gyro's misalignment and scale from the moves between rests (gyro_field.hpp).
+  GyroFieldSettings<Scalar> gyro_matrix{};
 };
 
 enum class FieldEventKind : std::uint8_t {
@@ -168,13 +176,24 @@ inline const char* field_reason_name(FieldReason r) {
   }
 }
 
-enum class FieldSensor : std::uint8_t { kGyro = 0, kAccel = 1, kMag = 2 };
+// kGyro: the gyro's bias; kGyroMatrix: its misalignment and scale.
+enum class FieldSensor : std::uint8_t { kGyro = 0, kAccel = 1, kMag = 2, kGyroMatrix = 3 };
 
 inline const char* field_sensor_name(FieldSensor s) {
-  return s == FieldSensor::kGyro ? "gyro" : (s == FieldSensor::kAccel ? "accel" : "mag");
+  switch (s) {
+    case FieldSensor::kGyro:
+      return "gyro";
+    case FieldSensor::kAccel:
+      return "accel";
+    case FieldSensor::kMag:
+      return "mag";
+    default:
+      return "gyro_matrix";
+  }
 }
 
-// One decision. value: the sensor's published bias at temperature_c after it (raw, added); chi2:
+// One decision. value: the sensor's published bias at temperature_c after it (raw, added; for
+// kGyroMatrix the published scales, rad/s per raw unit); chi2:
 // the statistic it was decided by (the gate's, the publication's, or the turn rate over its
 // bound). A kSaved event is the gyro's and stands for the whole record.
 template <typename Scalar>
@@ -210,12 +229,21 @@ struct FieldCounts {
   std::uint32_t mag_changes = 0;
   std::uint32_t mag_updates = 0;
   std::uint32_t mag_implausible = 0;
+  // The gyro's misalignment and scale: moves taken, refused (outside the gate), publications.
+  std::uint32_t gyro_moves = 0;
+  std::uint32_t gyro_moves_refused = 0;
+  std::uint32_t gyro_matrix_updates = 0;
 };
 
 template <typename Scalar, int Events = 8>
 class FieldCalibrator {
  public:
   using Settings = FieldSettings<Scalar>;
+  // The rest monitor: two finished rests queued, and room for kMoveSegments gyro segments of a
+  // move not walked yet (taken one a call as they come; if they pile up, they are coarsened,
+  // solve/move_store.hpp, and the move is not used).
+  static constexpr int kMoveSegments = 4;
+  using Monitor = RestMonitor<Scalar, 2, 8, kMoveSegments>;
 
   FieldCalibrator() = default;
 
@@ -237,6 +265,8 @@ class FieldCalibrator {
     last_t_us_ = 0;
     filter_time_us_ = 0;
     pending_ = candidate_ = false;
+    move_from_ok_ = walk_end_pending_ = false;
+    walk_move_ = 0;
     group_ = 0;
     independent_ = 0;
     last_taken_group_ = 0;
@@ -351,6 +381,29 @@ class FieldCalibrator {
         result = Status::kNonFiniteInput;
       mag_field_ut_ = m.gravity;
       mag_g_counts_ = m.accel_per_m_s2 * m.gravity;
+    }
+    {  // the gyro's misalignment and scale: from the prior's where it states them
+      using GyroVector9 = typename GyroField<Scalar>::Vector;
+      GyroVector9 prior9 = base_.gyro.params.template head<kGyroMatrixParams>();
+      // A prior that states only the bias (no scales): the nominal matrix, with its sigmas.
+      const bool matrix = prior9.template segment<3>(kGyroScaleX).minCoeff() > Scalar(0);
+      if (!matrix) {
+        prior9.setZero();
+        prior9.template segment<3>(kGyroScaleX).setConstant(Scalar(1) / k);
+      }
+      GyroVector9 sigma9;
+      for (int i = 0; i < kGyroMatrixParams; ++i) {
+        const Scalar nominal = i >= kGyroScaleX
+                                   ? settings.gyro_matrix.scale_sigma * std::abs(prior9(i))
+                                   : settings.gyro_matrix.misalignment_sigma;
+        const Scalar stated = matrix && prior != nullptr && succeeded(prior->gyro.status)
+                                  ? base_.gyro.sigma(i)
+                                  : std::numeric_limits<Scalar>::quiet_NaN();
+        sigma9(i) = std::isfinite(stated) && stated > Scalar(0) ? stated : nominal;
+      }
+      if (gyro_field_.start(settings.gyro_matrix, prior9, sigma9) != Status::kOk &&
+          result == Status::kOk)
+        result = Status::kNonFiniteInput;
     }
     accel_rests_ = 0;
     accel_noise_axis_ = settings.accel_noise / Scalar(3);
@@ -577,7 +630,8 @@ class FieldCalibrator {
   }
   const AccelField<Scalar, 26>& mag_field() const { return mag_; }
   const FieldCounts& counts() const { return counts_; }
-  const RestMonitor<Scalar, 2>& monitor() const { return monitor_; }
+  const Monitor& monitor() const { return monitor_; }
+  const GyroField<Scalar>& gyro_field() const { return gyro_field_; }
   const Settings& settings() const { return settings_; }
   // The temperature smoothed over temperature_seconds (NaN before any reading).
   Scalar temperature() const { return temperature_; }
@@ -596,7 +650,7 @@ class FieldCalibrator {
            positive(s.better_ratio) && s.better_ratio < Scalar(1) &&
            std::isfinite(s.temperature_margin_c) && s.temperature_margin_c >= Scalar(0) &&
            positive(s.temperature_seconds) && s.first_rests >= 1 && positive(s.gyro_noise) &&
-           positive(s.save_interval_s) && s.saves_per_day >= 1;
+           positive(s.save_interval_s) && s.saves_per_day >= 1 && s.gyro_matrix.valid();
   }
 
   struct Piece {
@@ -611,9 +665,30 @@ class FieldCalibrator {
     Scalar turned = Scalar(0);  // above 1: it turned (the rate over its bound) from a neighbour
     Scalar r = Scalar(0);       // each axis's variance of z
     Scalar t = Scalar(0);       // temperature (NaN: none)
-    std::uint64_t mid_us = 0, end_us = 0;  // on the elapsed clock
-    std::uint32_t group = 0;               // rests between motions share a group
+    std::uint64_t mid_us = 0, end_us = 0;      // on the elapsed clock
+    std::uint32_t group = 0;                   // rests between motions share a group
+    std::uint32_t begin_raw = 0, end_raw = 0;  // its first and last sample's timestamps
   };
+
+  // What a move needs of a rest piece at either end: its mean reading, that mean's variance per
+  // axis, its temperature, the timestamps that name it, its group.
+  struct MoveEnd {
+    Vector3<Scalar> z = Vector3<Scalar>::Zero();  // the bias it measures
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero();
+    Scalar acc_var = Scalar(0), t = Scalar(0);
+    std::uint32_t begin_raw = 0, end_raw = 0, group = 0;
+  };
+  static MoveEnd move_end(const Piece& p) {
+    MoveEnd e;
+    e.z = p.z;
+    e.acc = p.acc;
+    e.acc_var = p.acc_var;
+    e.t = p.t;
+    e.begin_raw = p.begin_raw;
+    e.end_raw = p.end_raw;
+    e.group = p.group;
+    return e;
+  }
 
   // The readings of the batch since the last call smoothed over temperature_seconds (a reading's
   // noise times the model's slope would otherwise be an error of the bias applied), without the
@@ -673,6 +748,8 @@ class FieldCalibrator {
     if (took_) {
     } else if (mag_due_ > 0) {
       add_mag_piece();
+    } else if (walk_due()) {
+      walk_moves();
     } else if (accel_.busy()) {
       if (accel_.step() == AccelFieldEvent::kUpdated)
         model_published(accel_, FieldSensor::kAccel, counts_.accel_updates);
@@ -825,6 +902,8 @@ class FieldCalibrator {
     p.mid_us = elapsed_at(r.begin_us / 2u + r.end_us / 2u + (r.begin_us & r.end_us & 1u));
     if (r.end_us < r.begin_us) p.mid_us = p.end_us;  // the timer wrapped inside the rest
     p.group = group_;
+    p.begin_raw = r.begin_us;
+    p.end_raw = r.end_us;
     // A rest that disagrees with the published bias widens its stated sigma at once, until the
     // rest is judged (a knock shows here a piece before it can be confirmed).
     if (has_published_) {
@@ -909,11 +988,22 @@ class FieldCalibrator {
   }
 
   void judge(const Piece& p) {
+    // A move counts only between two pieces judged one after the other that did not turn: rests
+    // whose gravity direction holds (their rate may disagree with the filter: the move's bias
+    // variance then grows by it).
+    const bool from_rest = move_from_ok_;
+    move_from_ok_ = false;
     if (p.turned > Scalar(1)) {
       event(FieldEventKind::kRejected, FieldReason::kTurning, p.t, p.turned);
       ++counts_.turning;
       return;
     }
+    if (from_rest && p.group == move_from_.group + 1u && gyro_field_.walking()) {
+      walk_end_ = move_end(p);  // the move into p: finished once walked
+      walk_end_pending_ = true;
+    }
+    move_from_ = move_end(p);
+    move_from_ok_ = true;
     predict_to(p.end_us);
     const Scalar chi2 = filter_.chi2(p.z, p.r, p.t);
     if (chi2 <= settings_.gate_chi2) {
@@ -1076,6 +1166,117 @@ class FieldCalibrator {
     set_detector_bias();
   }
 
+  // ---- The moves, for the gyro's misalignment and scale ----
+
+  // One step of the moves' walk: a move whose end was judged is finished once every segment of
+  // it was walked; otherwise the next segment the rest monitor holds is walked (a new move begins
+  // where its rest was the last piece taken).
+  void walk_moves() {
+    if (walk_end_pending_ &&
+        monitor_.move_complete(walk_move_, walk_end_.begin_raw, walk_end_.end_raw)) {
+      walk_end_pending_ = false;
+      end_walk(move_from_walk_, walk_end_);
+      return;
+    }
+    GyroSegment<Scalar> seg;
+    std::uint32_t move = 0;
+    if (!monitor_.take_move_segment(seg, move)) return;
+    if (move != walk_move_) {  // a new move: the one before cannot end any more
+      walk_move_ = move;
+      walk_end_pending_ = false;
+      begin_walk(move);
+    }
+    gyro_field_.add_segment(seg);
+  }
+
+  bool walk_due() const {
+    return gyro_field_.enabled() && (walk_end_pending_ || monitor_.move_segment_ready());
+  }
+
+  // A move begins at the rest of the last piece judged: the gravity direction there through the
+  // accelerometer's model, the filter's bias at its temperature.
+  void begin_walk(std::uint32_t move) {
+    gyro_field_.abandon();
+    std::uint32_t begin = 0, end = 0;
+    Vector3<Scalar> b0;
+    if (!move_from_ok_ || !monitor_.move_from(move, begin, end, b0) ||
+        begin != move_from_.begin_raw || end != move_from_.end_raw)
+      return;
+    Vector3<Scalar> up;
+    Scalar shape = Scalar(0);
+    if (!gravity_direction(move_from_, up, shape)) return;
+    const Scalar off = filter_.offset(move_from_.t);
+    if (gyro_field_.begin_move(up, filter_.value(off) - b0, shape)) move_from_walk_ = move_from_;
+  }
+
+  // The move walked ended at piece b, judged right after the piece it began at.
+  void end_walk(const MoveEnd& a, const MoveEnd& b) {
+    Vector3<Scalar> up;
+    Scalar shape = Scalar(0);
+    if (!gravity_direction(b, up, shape)) {
+      gyro_field_.abandon();
+      return;
+    }
+    // The bias's variance over the move: the filter's, and a rate at either end that disagrees
+    // with it (a rest held as inconsistent: a knock, or a slow turn that the gravity direction
+    // did not show).
+    const Scalar off = filter_.offset(b.t);
+    const Scalar da = (a.z - filter_.value(filter_.offset(a.t))).squaredNorm();
+    const Scalar db = (b.z - filter_.value(off)).squaredNorm();
+    const GyroFieldEvent e =
+        gyro_field_.end_move(up, a.acc_var / a.acc.squaredNorm() + b.acc_var / b.acc.squaredNorm(),
+                             filter_.variance(off) + std::fmax(da, db) / Scalar(3));
+    if (e == GyroFieldEvent::kRefused) {
+      ++counts_.gyro_moves_refused;
+      event(FieldEventKind::kRejected, FieldReason::kInconsistent, temperature_,
+            gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
+      return;
+    }
+    if (e == GyroFieldEvent::kTaken || e == GyroFieldEvent::kUpdated) ++counts_.gyro_moves;
+    if (e == GyroFieldEvent::kUpdated) {
+      base_.gyro.params.template head<kGyroMatrixParams>() = gyro_field_.published();
+      base_.gyro.sigma.template head<kGyroMatrixParams>() = gyro_field_.published_sigmas();
+      base_.gyro.status = Status::kOk;
+      model_published(gyro_field_, FieldSensor::kGyroMatrix, counts_.gyro_matrix_updates);
+    }
+  }
+
+  // A piece's gravity direction through the accelerometer's model at its temperature (the
+  // field's model, or the prior's without it), and how well that model is known: the largest of
+  // its misalignments' and relative scales' sigmas and of its bias's sigma against gravity (a
+  // bias error turns both ends of a move alike, by its share of gravity). False without a model
+  // or for a reading it cannot take.
+  bool gravity_direction(const MoveEnd& p, Vector3<Scalar>& up, Scalar& shape) const {
+    AccelCalibration<Scalar> cal;
+    Vector3<Scalar> bias_sigma;
+    if (accel_.enabled()) {
+      TemperatureBias<Scalar> unused;
+      accel_.model(cal, unused);
+      Vector3<Scalar> b;
+      accel_.bias(p.t, settings_.temperature_margin_c, b, &bias_sigma);
+      cal.params.template segment<3>(kBiasX) = b;
+    } else if (succeeded(base_.accel.status)) {
+      cal = base_.accel;
+      bias_sigma = cal.sigma.template segment<3>(kBiasX);
+    } else {
+      return false;
+    }
+    const Scalar raw = p.acc.norm();
+    if (!(raw > Scalar(0))) return false;
+    shape = bias_sigma.cwiseAbs().maxCoeff() / raw;
+    for (int i = 0; i < 3; ++i) {
+      const Scalar s = std::abs(cal.params(kScaleX + i));
+      if (!(s > Scalar(0))) return false;
+      shape = std::fmax(shape, std::fmax(std::abs(cal.sigma(kAlphaYz + i)),
+                                         std::abs(cal.sigma(kScaleX + i)) / s));
+    }
+    const Vector3<Scalar> g = accel_apply(cal.params, p.acc);
+    const Scalar n = g.norm();
+    if (!(n > Scalar(0)) || !std::isfinite(shape)) return false;
+    up = g / n;
+    return all_finite(up);
+  }
+
   // The detector removes the published bias at the temperature now.
   void set_detector_bias() {
     detector_temperature_ = temperature_;
@@ -1089,6 +1290,13 @@ class FieldCalibrator {
     if (!gyro_cue) m.gyro_noise = Scalar(0);
     m.gyro_rest_reading = -published_.at(temperature_, settings_.temperature_margin_c);
     m.follow_rests = false;
+    // The moves between rests, for the gyro's misalignment and scale: the segment bounds in raw
+    // units (path angle, and |alpha||beta| in rad^3).
+    if (settings_.gyro_matrix.enabled) {
+      const Scalar k = settings_.gyro_per_rad_s;
+      m.move_max_angle = settings_.gyro_matrix.segment_max_angle * k;
+      m.move_max_error = settings_.gyro_matrix.segment_max_error * k * k * k;
+    }
     return m;
   }
 
@@ -1105,6 +1313,8 @@ class FieldCalibrator {
       accel_.bias(t, settings_.temperature_margin_c, e.value);
     else if (sensor == FieldSensor::kMag)
       mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), e.value);
+    else if (sensor == FieldSensor::kGyroMatrix)
+      e.value = base_.gyro.params.template segment<3>(kGyroScaleX);
     else
       e.value = published_.at(t, settings_.temperature_margin_c);
     if (events_.push(e)) ++counts_.events_dropped;
@@ -1112,7 +1322,7 @@ class FieldCalibrator {
 
   Settings settings_{};
   bool valid_ = false;
-  RestMonitor<Scalar, 2> monitor_{};
+  Monitor monitor_{};
   BiasFilter<Scalar> filter_{}, published_{};
   bool has_published_ = false;
   bool unsaved_ = false;  // a publication since the last save
@@ -1181,6 +1391,14 @@ class FieldCalibrator {
       Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
   MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
   Scalar mag_field_ut_ = Scalar(50);   // the field strength the model's norm is
+  // The gyro's misalignment and scale, the piece a move into the next taken one starts from, the
+  // move under way's rest (its timestamps) and its two ends' gravity directions.
+  GyroField<Scalar> gyro_field_{};
+  MoveEnd move_from_{};       // the last piece judged, if it did not turn (move_from_ok_)
+  MoveEnd move_from_walk_{};  // the piece the move being walked began at
+  MoveEnd walk_end_{};        // ... and the one it ended at, once judged (walk_end_pending_)
+  bool move_from_ok_ = false, walk_end_pending_ = false;
+  std::uint32_t walk_move_ = 0;  // the rest monitor's number of the move being walked
 };
 
 }  // namespace imucal

@@ -1,0 +1,299 @@
+// SPDX-License-Identifier: MIT
+// imucal/field/gyro_field.hpp: the gyroscope's misalignment and scale from natural moves (the
+// design's field.md section 4), for the field calibrator.
+//
+// A move between two rests the field calibrator took gives the protocol's two residual rows
+// (solve/gyro_calibration.hpp: r = R^T g_a - g_b across g_b, R the move's rotation through the
+// gyro model, g_a and g_b the gravity directions at its ends through the accelerometer's model).
+// They are linearised at the current estimate and taken by a Kalman update of the nine
+// parameters, which start at the prior: the stored calibration's, or the nominal model with a
+// datasheet's tolerances. A parameter the moves do not determine keeps its prior value and sigma.
+// A move whose residual lies outside the gate of the prediction (chi-square(2)) is refused: a
+// rest that was not one, a gyro that clipped unseen.
+//
+// A move's noise, per residual component: the two ends' directions (each rest's mean), the
+// bias's uncertainty over the move's duration, the accelerometer model's (its scale and
+// misalignment sigma times the move's angle) and a floor (a rest's mean direction against the
+// attitude where the move starts and ends). The gyro's axes are measured against the
+// accelerometer's: while the accelerometer's scale or misalignment sigma exceeds
+// accel_shape_max no move is taken (they would teach the accelerometer's errors), and the
+// published sigmas include the largest accelerometer sigma the moves were taken with (an error
+// common to every move, which more moves do not average away).
+//
+// The estimate replaces the published one only when it is better: no sigma larger, and either
+// the two differ significantly (chi-square(9) on the difference with both covariances) or a
+// sigma is at most better_ratio of the published one's. A move is walked as its segments come
+// (begin_move(), add_segment(), end_move()): fixed memory whatever its length.
+// Fixed memory, no allocation, no exceptions. Header-only.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+
+#include "imucal/models/gyro_model.hpp"
+#include "imucal/solve/gyro_calibration.hpp"
+#include "imucal/solve/ldlt.hpp"
+#include "imucal/status.hpp"
+#include "imucal/types.hpp"
+
+namespace imucal {
+
+template <typename Scalar>
+struct GyroFieldSettings {
+  bool enabled = true;
+  // The prior without a stored calibration: the nominal scale with this relative sigma, no
+  // misalignment with this sigma (rad). A datasheet's +-3 % and +-2 % read as uniform.
+  Scalar scale_sigma = Scalar(0.017);
+  Scalar misalignment_sigma = Scalar(0.0115);
+  // A move's gyro segments: path angle (rad) and |alpha||beta| (rad^3) bounds, as the
+  // protocol's (CalibratorSettings::segment_max_angle, _error).
+  Scalar segment_max_angle = Scalar(0.6);
+  Scalar segment_max_error = Scalar(1e-3);
+  Scalar move_floor = Scalar(5e-4);       // rad, per residual component
+  Scalar min_angle = Scalar(0.3);         // rad: a move that turned less is not used
+  Scalar accel_shape_max = Scalar(3e-3);  // the accelerometer's scale (relative), misalignment
+  Scalar gate_chi2 = Scalar(13.82);       // chi-square(2) at 0.1 %: a move is taken
+  Scalar publish_chi2 = Scalar(16.92);    // chi-square(9) at 5 %: the published one is replaced
+  Scalar better_ratio = Scalar(0.25);     // ... or a sigma squared is at most this share
+  int segments_per_step = 4;              // segments a call folds
+
+  bool valid() const {
+    const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
+    return positive(scale_sigma) && positive(misalignment_sigma) && positive(segment_max_angle) &&
+           positive(segment_max_error) && std::isfinite(move_floor) && move_floor >= Scalar(0) &&
+           std::isfinite(min_angle) && min_angle >= Scalar(0) && positive(accel_shape_max) &&
+           positive(gate_chi2) && positive(publish_chi2) && positive(better_ratio) &&
+           better_ratio < Scalar(1) && segments_per_step >= 1;
+  }
+};
+
+enum class GyroFieldEvent : std::uint8_t {
+  kNone = 0,     // nothing finished in this call
+  kTaken = 1,    // a move was taken, the published model stays
+  kRefused = 2,  // a move's residual was outside the gate
+  kUpdated = 3,  // a move was taken and the model published
+};
+
+template <typename Scalar>
+class GyroField {
+ public:
+  static constexpr int N = kGyroMatrixParams;
+  using Vector = Eigen::Matrix<Scalar, N, 1>;
+  using Matrix = Eigen::Matrix<Scalar, N, N>;
+  using Settings = GyroFieldSettings<Scalar>;
+
+  // Starts from the prior: the nine parameters (misalignment, scale; the model's units) and
+  // their sigmas. kInvalidArgument: settings out of range or a prior that is not finite, or a
+  // sigma not positive (nothing is taken then).
+  Status start(const Settings& s, const Vector& prior, const Vector& sigma) {
+    settings_ = s;
+    valid_ =
+        s.valid() && all_finite(prior) && all_finite(sigma) && (sigma.array() > Scalar(0)).all();
+    walking_ = false;
+    moves_ = refused_ = 0;
+    has_published_ = false;
+    chi2_ = Scalar(0);
+    shape_ = Scalar(0);
+    reason_ = 0;
+    if (!valid_) return Status::kInvalidArgument;
+    theta_ = published_ = prior;
+    p_.setZero();
+    p_.diagonal() = sigma.cwiseAbs2();
+    published_p_ = p_;
+    return Status::kOk;
+  }
+
+  bool enabled() const { return valid_ && settings_.enabled; }
+  // A move is being walked.
+  bool walking() const { return walking_; }
+
+  // A move begins: the gravity direction at its start (unit, through the accelerometer's model),
+  // the bias's best estimate less the one its segments will include, and the accelerometer
+  // model's shape sigma. False (nothing begun) while the accelerometer is not known well enough
+  // (accel_shape_max), or when not enabled.
+  bool begin_move(const Vector3<Scalar>& ga, const Vector3<Scalar>& bias_shift, Scalar shape) {
+    walking_ = false;
+    if (!enabled() || !(shape <= settings_.accel_shape_max) || !all_finite(ga) ||
+        !all_finite(bias_shift))
+      return false;
+    problem_.data.bias_shift = bias_shift;
+    problem_.refine_bias = false;
+    problem_.start_move(ga, cursor_);
+    angle_ = duration_ = Scalar(0);
+    segments_ = 0;
+    move_shape_ = shape;
+    walking_ = true;
+    return true;
+  }
+
+  // The move's next segment (of the rate the bias shift applies to).
+  void add_segment(const GyroSegment<Scalar>& seg) {
+    if (!walking_) return;
+    angle_ += seg.alpha.norm();
+    duration_ += seg.duration;
+    ++segments_;
+    if (problem_.add_segment(parameters(), seg, cursor_) != Status::kOk) walking_ = false;
+  }
+
+  // The move is given up (cut, or its ends not both taken).
+  void abandon() { walking_ = false; }
+
+  // The move ended: the gravity direction at its end, the two directions' variance (per
+  // component, summed) and the bias's variance per axis. A move that turned less than
+  // min_angle is not used (kNone); otherwise its rows are gated and taken.
+  GyroFieldEvent end_move(const Vector3<Scalar>& gb, Scalar direction_var, Scalar bias_var) {
+    if (!walking_) return GyroFieldEvent::kNone;
+    walking_ = false;
+    const Scalar angle = angle_ * scale();
+    if (!(angle >= settings_.min_angle) || !all_finite(gb)) return GyroFieldEvent::kNone;
+    Rows rows;
+    const Status s = problem_.end_move(parameters(), gb, rows, cursor_);
+    if (s != Status::kOk || rows.n != 2 || !all_finite(rows.j) || !all_finite(rows.r)) {
+      ++refused_;
+      chi2_ = Scalar(0);
+      return GyroFieldEvent::kRefused;
+    }
+    const Scalar floor = settings_.move_floor, bias_angle = duration_ * scale();
+    // Each segment's second-order expansion errs by up to ~2e-5 rad within the default bounds.
+    // An error of the accelerometer's model moves each end's direction by up to its shape sigma,
+    // whatever the path between them: at most twice that on the residual.
+    const Scalar turn = angle < Scalar(2) ? angle : Scalar(2);
+    noise_ = direction_var + bias_var * bias_angle * bias_angle + floor * floor +
+             turn * move_shape_ * turn * move_shape_ +
+             Scalar(4e-10) * static_cast<Scalar>(segments_);
+    return update(rows);
+  }
+
+  // The published parameters and their sigmas (the accelerometer's share included).
+  const Vector& published() const { return published_; }
+  Vector published_sigmas() const {
+    Vector s;
+    for (int i = 0; i < N; ++i) {
+      // The accelerometer's shape error, common to every move: relative for the scales.
+      const Scalar f = i >= kGyroScaleX ? shape_ * published_(i) : shape_;
+      s(i) = std::sqrt(published_p_(i, i) + f * f);
+    }
+    return s;
+  }
+  bool has_published() const { return has_published_; }
+  // The estimate and its covariance (the moves' own, without the accelerometer's share).
+  const Vector& estimate() const { return theta_; }
+  const Matrix& covariance() const { return p_; }
+  std::uint32_t moves() const { return moves_; }
+  std::uint32_t refused() const { return refused_; }
+  // The statistic of the last decision (the gate's for kRefused, the publication's for
+  // kUpdated), and why the last kUpdated came: 0 first, 1 significant, 2 better.
+  Scalar last_chi2() const { return chi2_; }
+  int update_reason() const { return reason_; }
+
+ private:
+  // The two rows of a move (GyroProblem's accumulator interface).
+  struct Rows {
+    Eigen::Matrix<Scalar, 2, kGyroParams> j = Eigen::Matrix<Scalar, 2, kGyroParams>::Zero();
+    Eigen::Matrix<Scalar, 2, 1> r = Eigen::Matrix<Scalar, 2, 1>::Zero();
+    int n = 0;
+    Status add(const typename GyroProblem<Scalar>::Vector& row, Scalar e) {
+      if (n < 2) {
+        j.row(n) = row.transpose();
+        r(n) = e;
+      }
+      ++n;
+      return Status::kOk;
+    }
+  };
+
+  typename GyroProblem<Scalar>::Vector parameters() const {
+    typename GyroProblem<Scalar>::Vector p = GyroProblem<Scalar>::Vector::Zero();
+    p.template head<N>() = theta_;
+    return p;
+  }
+
+  // The rate's unit against rad/s: the mean scale (what a raw path angle is in rad).
+  Scalar scale() const {
+    return (std::abs(theta_(kGyroScaleX)) + std::abs(theta_(kGyroScaleY)) +
+            std::abs(theta_(kGyroScaleZ))) /
+           Scalar(3);
+  }
+
+  GyroFieldEvent update(const Rows& rows) {
+    const Eigen::Matrix<Scalar, 2, N> j = rows.j.template leftCols<N>();
+    const Eigen::Matrix<Scalar, N, 2> pj = p_ * j.transpose();
+    Eigen::Matrix<Scalar, 2, 2> s = j * pj;
+    s(0, 0) += noise_;
+    s(1, 1) += noise_;
+    const Scalar det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
+    if (!(det > Scalar(0))) {
+      ++refused_;
+      chi2_ = Scalar(0);
+      return GyroFieldEvent::kRefused;
+    }
+    Eigen::Matrix<Scalar, 2, 2> si;
+    si << s(1, 1), -s(0, 1), -s(1, 0), s(0, 0);
+    si /= det;
+    chi2_ = rows.r.dot(si * rows.r);
+    if (!(chi2_ <= settings_.gate_chi2)) {
+      ++refused_;
+      return GyroFieldEvent::kRefused;
+    }
+    // Joseph's form keeps the covariance symmetric and positive in float.
+    const Eigen::Matrix<Scalar, N, 2> k = pj * si;
+    theta_ -= k * rows.r;
+    const Matrix a = Matrix::Identity() - k * j;
+    p_ = a * p_ * a.transpose() + noise_ * (k * k.transpose());
+    p_ = Scalar(0.5) * (p_ + p_.transpose()).eval();
+    ++moves_;
+    if (move_shape_ > shape_) shape_ = move_shape_;
+    return consider_publishing();
+  }
+
+  GyroFieldEvent consider_publishing() {
+    bool no_worse = true, much_better = false;
+    for (int i = 0; i < N; ++i) {
+      no_worse = no_worse && p_(i, i) <= published_p_(i, i) * Scalar(1.001);
+      much_better = much_better || p_(i, i) <= settings_.better_ratio * published_p_(i, i);
+    }
+    if (!no_worse) return GyroFieldEvent::kTaken;
+    // chi-square of the difference with both covariances, Jacobi-scaled (the scales and the
+    // misalignments differ by orders of magnitude in the model's units).
+    Matrix m = p_ + published_p_;
+    Vector x = theta_ - published_, y;
+    for (int i = 0; i < N; ++i) {
+      if (!(m(i, i) > Scalar(0))) return GyroFieldEvent::kTaken;
+      y(i) = Scalar(1) / std::sqrt(m(i, i));
+    }
+    m = y.asDiagonal() * m * y.asDiagonal();
+    x = x.cwiseProduct(y);
+    y = x;
+    Scalar d[N];
+    if (detail::ldlt_factor(m.data(), N, d, Scalar(1e-6)) != Status::kOk)
+      return GyroFieldEvent::kTaken;
+    detail::ldlt_solve(m.data(), d, N, y.data());
+    const Scalar chi2 = x.dot(y);
+    const bool significant = chi2 > settings_.publish_chi2;
+    if (!significant && !much_better) return GyroFieldEvent::kTaken;
+    reason_ = !has_published_ ? 0 : (significant ? 1 : 2);
+    chi2_ = chi2;
+    published_ = theta_;
+    published_p_ = p_;
+    has_published_ = true;
+    return GyroFieldEvent::kUpdated;
+  }
+
+  Settings settings_{};
+  bool valid_ = false, walking_ = false, has_published_ = false;
+  Vector theta_ = Vector::Zero(), published_ = Vector::Zero();
+  Matrix p_ = Matrix::Zero(), published_p_ = Matrix::Zero();
+  GyroProblem<Scalar> problem_{};
+  typename GyroProblem<Scalar>::Cursor cursor_{};
+  Scalar angle_ = Scalar(0), duration_ = Scalar(0);  // the move's path (raw) and duration (s)
+  std::uint32_t segments_ = 0;
+  Scalar noise_ = Scalar(0);       // the move under way's, per residual component
+  Scalar move_shape_ = Scalar(0);  // the accelerometer's shape sigma it was offered with
+  Scalar shape_ = Scalar(0);       // the largest of those among the moves taken
+  Scalar chi2_ = Scalar(0);
+  int reason_ = 0;
+  std::uint32_t moves_ = 0, refused_ = 0;
+};
+
+}  // namespace imucal
