@@ -841,6 +841,25 @@ TEST(FieldLife, GyroMatrixLearnedFromNaturalMoves) {
   }
 }
 
+// The rest monitor keeps the moves only while they can teach the gyro's matrix: with an
+// accelerometer known well (a protocol's record), not from the datasheet's tolerances, not when
+// the gyro's matrix is not learned.
+TEST(FieldCalibrator, MovesAreKeptOnlyWithAWellKnownAccelerometer) {
+  sim::LifePlan plan;
+  ASSERT_TRUE(sim::make_life("desk", 1, 0.1, {}, plan));
+  sim::LifeSimulator life(plan);
+  const sim::StoredCalibration prior = sim::protocol_record(life, 0.01, 0.02);
+  FieldSettings<float> s = settings_for(life.sheet());
+  FieldCalibrator<float> f;
+  ASSERT_EQ(f.start(s), Status::kOk);
+  EXPECT_FALSE(f.monitor().keeps_moves());
+  ASSERT_EQ(f.start(s, &prior.cal, &prior.model), Status::kOk);
+  EXPECT_TRUE(f.monitor().keeps_moves());
+  s.gyro_matrix.enabled = false;
+  ASSERT_EQ(f.start(s, &prior.cal, &prior.model), Status::kOk);
+  EXPECT_FALSE(f.monitor().keeps_moves());
+}
+
 // A vehicle's moves are turns about the vertical in a cradle: they teach little, and nothing
 // false.
 TEST(FieldLife, GyroMatrixMakesNoFalseUpdateInAVehicle) {

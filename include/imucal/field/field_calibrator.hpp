@@ -409,6 +409,7 @@ class FieldCalibrator {
     accel_noise_axis_ = settings.accel_noise / Scalar(3);
     gyro_cue_ = has_published_;
     monitor_.reset(monitor_settings(gyro_cue_));
+    update_move_keeping();
     rests_seen_ = temps_seen_ = 0;
     detector_temperature_ = temperature_;
     return result;
@@ -1105,6 +1106,7 @@ class FieldCalibrator {
 
   void take(const Piece& p, bool count = true) {
     filter_.update(p.z, p.r, p.t);
+    update_move_keeping();  // the accelerometer's model may have become known, or uncertain
     if (count) ++counts_.taken;
     if (accel_.enabled()) {  // the rests the gyro takes are rests for the accelerometer too
       ++accel_rests_;
@@ -1159,6 +1161,7 @@ class FieldCalibrator {
     event(FieldEventKind::kUpdated, why, t, chi2);
     if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
       monitor_.reset(monitor_settings(true));
+      update_move_keeping();
       rests_seen_ = temps_seen_ = 0;
       gyro_cue_ = true;
       pending_ = false;
@@ -1190,7 +1193,22 @@ class FieldCalibrator {
   }
 
   bool walk_due() const {
-    return gyro_field_.enabled() && (walk_end_pending_ || monitor_.move_segment_ready());
+    return monitor_.keeps_moves() && (walk_end_pending_ || monitor_.move_segment_ready());
+  }
+
+  // The rest monitor keeps the moves only while they can be used: the gyro's matrix is learned
+  // and the accelerometer's model is known well enough now (in the field, at the temperature
+  // now); otherwise its blocks close as without moves, and nothing is walked.
+  void update_move_keeping() {
+    AccelVector<Scalar> pa;
+    Scalar shape = Scalar(0);
+    const bool on = gyro_field_.enabled() && accel_model(temperature_, pa, shape, nullptr) &&
+                    shape <= settings_.gyro_matrix.accel_shape_max;
+    if (on != monitor_.keeps_moves()) {
+      monitor_.keep_moves(on);
+      gyro_field_.abandon();
+      walk_end_pending_ = false;
+    }
   }
 
   // A move begins at the rest of the last piece judged: the gravity direction there through the
@@ -1247,34 +1265,48 @@ class FieldCalibrator {
   // bias error turns both ends of a move alike, by its share of gravity). False without a model
   // or for a reading it cannot take.
   bool gravity_direction(const MoveEnd& p, Vector3<Scalar>& up, Scalar& shape) const {
+    AccelVector<Scalar> pa;
+    const Scalar raw = p.acc.norm();
+    if (!(raw > Scalar(0)) || !accel_model(p.t, pa, shape, &raw)) return false;
+    const Vector3<Scalar> g = accel_apply(pa, p.acc);
+    const Scalar n = g.norm();
+    if (!(n > Scalar(0))) return false;
+    up = g / n;
+    return all_finite(up);
+  }
+
+  // The accelerometer's model at temperature t (the field's, or the prior's without it) and its
+  // shape sigma: the largest of its misalignments' and relative scales' sigmas and of its bias's
+  // sigma over `gravity` (raw; nullptr: the nominal gravity in raw units). False without a model.
+  bool accel_model(Scalar t, AccelVector<Scalar>& pa, Scalar& shape, const Scalar* gravity) const {
     AccelCalibration<Scalar> cal;
     Vector3<Scalar> bias_sigma;
+    Scalar g = Scalar(0);
     if (accel_.enabled()) {
       TemperatureBias<Scalar> unused;
       accel_.model(cal, unused);
       Vector3<Scalar> b;
-      accel_.bias(p.t, settings_.temperature_margin_c, b, &bias_sigma);
+      accel_.bias(t, settings_.temperature_margin_c, b, &bias_sigma);
       cal.params.template segment<3>(kBiasX) = b;
+      g = settings_.accel.accel_per_m_s2 * settings_.accel.gravity;
     } else if (succeeded(base_.accel.status)) {
       cal = base_.accel;
       bias_sigma = cal.sigma.template segment<3>(kBiasX);
+      g = Scalar(9.80665) / std::abs(cal.params(kScaleX));
     } else {
       return false;
     }
-    const Scalar raw = p.acc.norm();
-    if (!(raw > Scalar(0))) return false;
-    shape = bias_sigma.cwiseAbs().maxCoeff() / raw;
+    if (gravity != nullptr) g = *gravity;
+    if (!(g > Scalar(0))) return false;
+    shape = bias_sigma.cwiseAbs().maxCoeff() / g;
     for (int i = 0; i < 3; ++i) {
       const Scalar s = std::abs(cal.params(kScaleX + i));
       if (!(s > Scalar(0))) return false;
       shape = std::fmax(shape, std::fmax(std::abs(cal.sigma(kAlphaYz + i)),
                                          std::abs(cal.sigma(kScaleX + i)) / s));
     }
-    const Vector3<Scalar> g = accel_apply(cal.params, p.acc);
-    const Scalar n = g.norm();
-    if (!(n > Scalar(0)) || !std::isfinite(shape)) return false;
-    up = g / n;
-    return all_finite(up);
+    pa = cal.params;
+    return std::isfinite(shape) && all_finite(pa);
   }
 
   // The detector removes the published bias at the temperature now.

@@ -111,14 +111,31 @@ class RestMonitor {
     queue_.clear();
     dropped_ = emitted_ = 0;
     if constexpr (MoveSegments > 0) {
-      keep_moves_ = valid_ && std::isfinite(settings.move_max_angle) &&
-                    std::isfinite(settings.move_max_error) && settings.move_max_angle > Scalar(0) &&
-                    settings.move_max_error > Scalar(0);
+      can_keep_moves_ = valid_ && std::isfinite(settings.move_max_angle) &&
+                        std::isfinite(settings.move_max_error) &&
+                        settings.move_max_angle > Scalar(0) && settings.move_max_error > Scalar(0);
+      keep_moves_ = can_keep_moves_;
       moves_ = KeptMoves{};
       moves_.building.reset(settings.move_max_angle, settings.move_max_error);
     }
     return valid_ ? Status::kOk : Status::kInvalidArgument;
   }
+
+  // Moves are kept (true, the default when the settings bound them) or not: then blocks close by
+  // duration and stillness only, as without moves, and nothing is handed on (an owner that cannot
+  // use them yet saves their cost). A move under way is dropped either way; the next begins at
+  // the end of the next rest handed out.
+  void keep_moves(bool on) {
+    if constexpr (MoveSegments > 0) {
+      keep_moves_ = on && can_keep_moves_;
+      moves_.building.drop();
+      moves_.moved = false;
+      if (!keep_moves_) moves_.ended.move = 0;
+    } else {
+      (void)on;
+    }
+  }
+  bool keeps_moves() const { return keep_moves_; }
 
   // One raw sample: the front end's statuses (checks.hpp), as the calibrator's add(). Refused,
   // nothing changed: kInvalidArgument (settings not valid), kNonFiniteInput, kTimeRepeated,
@@ -392,7 +409,7 @@ class RestMonitor {
   }
   struct NoMoves {};
   std::conditional_t<(MoveSegments > 0), KeptMoves, NoMoves> moves_{};
-  bool keep_moves_ = false;
+  bool keep_moves_ = false, can_keep_moves_ = false;
 };
 
 }  // namespace imucal
