@@ -17,6 +17,11 @@
 //     turning, held, published): the largest calls.
 // The same frames go to a second calibrator with the temperature once a second only (regions
 // "field, temperature at 1 Hz: ..."; without the magnetometer): the per-frame temperature's share.
+// The same frames go to a third calibrator started from a stored record (a protocol's calibration,
+// sim::protocol_record(): the accelerometer's model known well, the gyro's matrix 1 % off), which
+// keeps and walks the moves between rests for the gyro's misalignment and scale ("field, from a
+// stored calibration: ..."; without the magnetometer, the temperature with every frame; a call
+// walks a segment in the call that closed it, so the walks are in its frames in motion).
 // The magnetometer's reading that arrives with every second frame (50 Hz) goes to add_mag(), each
 // call its own region, named by whether a rest was open (the field is summed) or not. The life is
 // simulated in double (slow on the cores without an FPU) between the regions, its frame written to
@@ -43,6 +48,8 @@ FieldCalibrator<float> calibrator;  // global: no guard, no stack
 // The same frames with the temperature once a second only (the life reads it with every frame):
 // what the per-frame temperature costs (float smoothing, soft-float on the cores without an FPU).
 FieldCalibrator<float> calibrator_1hz;
+// Started from a protocol's record: the moves between rests teach the gyro's matrix.
+FieldCalibrator<float> calibrator_stored;
 // The frame, its temperature and the field are written here before the begin marker (its memory
 // clobber orders the stores), so that converting the simulator's doubles is not counted.
 RawFrame g_frame;
@@ -132,6 +139,8 @@ int main() {
   sim::LifeSimulator life(plan);
   const Status started = calibrator.start(settings_for(life.sheet()));
   calibrator_1hz.start(settings_for(life.sheet()));
+  const sim::StoredCalibration stored = sim::protocol_record(life, 0.01, 0.02);
+  calibrator_stored.start(settings_for(life.sheet()), &stored.cal, &stored.model);
   double next_temperature_s = 0.0;
   sim::LifeSample s;
   sim::LifeTruth t;
@@ -200,6 +209,24 @@ int main() {
                                     : "field, temperature at 1 Hz: add_raw(), moving, per frame");
     while (calibrator_1hz.take_event(e)) {
     }
+    // From the stored record, the temperature with every frame.
+    g_temperature = s.temperature_new ? s.imu.temperature : std::numeric_limits<float>::quiet_NaN();
+    const std::uint32_t before_stored = decisions(calibrator_stored.counts());
+    const bool solving_stored =
+        calibrator_stored.accel_field().busy() || calibrator_stored.mag_field().busy();
+    bench::stack_paint();
+    IMUCAL_OTHER_BEGIN();
+    calibrator_stored.add_raw(g_frame, g_temperature);
+    IMUCAL_OTHER_END();
+    bench::stack_measure();
+    IMUCAL_OTHER_ANNOUNCE(
+        decisions(calibrator_stored.counts()) != before_stored
+            ? "field, from a stored calibration: add_raw(), a rest handed out or judged"
+        : solving_stored ? "field, from a stored calibration: add_raw(), a solve slice, per call"
+        : t.still        ? "field, from a stored calibration: add_raw(), still, per frame"
+                         : "field, from a stored calibration: add_raw(), moving, per frame");
+    while (calibrator_stored.take_event(e)) {
+    }
   }
   bench::report_stack("field add_raw(), add_mag()");
 
@@ -222,5 +249,12 @@ int main() {
       static_cast<unsigned>(calibrator_1hz.counts().rests),
       static_cast<unsigned>(calibrator_1hz.counts().taken),
       static_cast<unsigned>(calibrator_1hz.counts().updates));
+  const FieldCounts& cs = calibrator_stored.counts();
+  std::printf(
+      "RESULT field, from a stored calibration (no magnetometer): %u rests, %u taken, %u gyro "
+      "moves taken, %u refused, %u gyro matrix updates\n",
+      static_cast<unsigned>(cs.rests), static_cast<unsigned>(cs.taken),
+      static_cast<unsigned>(cs.gyro_moves), static_cast<unsigned>(cs.gyro_moves_refused),
+      static_cast<unsigned>(cs.gyro_matrix_updates));
   return started == Status::kOk && refused == 0 && published ? 0 : 1;
 }
