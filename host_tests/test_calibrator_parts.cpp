@@ -11,12 +11,12 @@
 #include <vector>
 
 #include "imucal/calibrator/calibrator.hpp"
-#include "imucal/solve/move_store.hpp"
 #include "imucal/calibrator/pose_collection.hpp"
 #include "imucal/calibrator/solve_sequence.hpp"
 #include "imucal/sim/accel_sim.hpp"
 #include "imucal/sim/motion_sim.hpp"
 #include "imucal/sim/random.hpp"
+#include "imucal/solve/move_store.hpp"
 #include "imucal/stream/blocks.hpp"
 #include "imucal/stream/checks.hpp"
 #include "imucal/stream/initial_rest.hpp"

@@ -36,11 +36,11 @@
 #include <cstdint>
 #include <limits>
 
-#include "imucal/solve/move_store.hpp"
 #include "imucal/calibrator/pose_collection.hpp"
 #include "imucal/calibrator/settings.hpp"
 #include "imucal/calibrator/solve_sequence.hpp"
 #include "imucal/models/calibration.hpp"
+#include "imucal/solve/move_store.hpp"
 #include "imucal/status.hpp"
 #include "imucal/stream/blocks.hpp"
 #include "imucal/stream/checks.hpp"
