@@ -108,6 +108,22 @@ enum class AccelFieldEvent : std::uint8_t {
                         // zero reading, refused
 };
 
+// How well an accelerometer model is known, without units: the largest of its misalignments'
+// and relative scales' sigmas and of bias_g (its bias's sigma per axis, against gravity).
+// Infinity for a scale that is not positive; NaN for a NaN.
+template <typename Scalar>
+Scalar accel_shape_sigma(const AccelVector<Scalar>& params, const AccelVector<Scalar>& sigma,
+                         const Vector3<Scalar>& bias_g) {
+  Scalar shape = bias_g.cwiseAbs().maxCoeff();
+  for (int i = 0; i < 3; ++i) {
+    const Scalar s = std::abs(params(kScaleX + i));
+    const Scalar scale =
+        s > Scalar(0) ? std::abs(sigma(kScaleX + i)) / s : std::numeric_limits<Scalar>::infinity();
+    shape = std::fmax(shape, std::fmax(std::abs(sigma(kAlphaYz + i)), scale));
+  }
+  return all_finite(sigma) && all_finite(bias_g) ? shape : std::numeric_limits<Scalar>::quiet_NaN();
+}
+
 template <typename Scalar, int Cells = 16>
 class AccelField {
  public:
@@ -353,21 +369,19 @@ class AccelField {
     out = g_counts_ *
           (published_.template segment<3>(kBiasX) + d * published_.template segment<3>(kSlopeX) +
            d2 * published_.template segment<3>(kCurvatureX));
-    if (sigma != nullptr) {  // the variance at t itself (it grows beyond the range)
-      const Scalar u = offset(t);
-      for (int i = 0; i < 3; ++i) {
-        const int k[3] = {kBiasX + i, kSlopeX + i, kCurvatureX + i};
-        const Scalar h[3] = {Scalar(1), u, u * u};
-        Scalar v = Scalar(0);
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) v += h[a] * h[b] * published_cov_[index(k[a], k[b])];
-        // While a rest that disagrees is held (a change, until confirmed or dropped), the
-        // sigma covers a change's step.
-        if (candidate_) v += change2_;
-        (*sigma)(i) = g_counts_ * std::sqrt(v > Scalar(0) ? v : Scalar(0));
-      }
+    if (sigma != nullptr) {
+      const Vector3<Scalar> v = bias_variance(t);
+      for (int i = 0; i < 3; ++i) (*sigma)(i) = g_counts_ * std::sqrt(v(i));
     }
     return has_published_;
+  }
+
+  // How well the published model is known at temperature t: accel_shape_sigma() of its
+  // parameters, with the bias's sigma at t.
+  Scalar shape_sigma(Scalar t) const {
+    return accel_shape_sigma<Scalar>(published_.template head<kAccelParams>(),
+                                     published_sigma_.template head<kAccelParams>(),
+                                     bias_variance(t).cwiseSqrt());
   }
 
   // The published model in sensor units: the calibration's accelerometer part (the bias at the
@@ -409,6 +423,24 @@ class AccelField {
     int determined = 0;
     bool worse = false;
   };
+
+  // The published bias's variance per axis at t itself (it grows beyond the range; g^2).
+  Vector3<Scalar> bias_variance(Scalar t) const {
+    const Scalar u = offset(t);
+    const Scalar h[3] = {Scalar(1), u, u * u};
+    Vector3<Scalar> out;
+    for (int i = 0; i < 3; ++i) {
+      const int k[3] = {kBiasX + i, kSlopeX + i, kCurvatureX + i};
+      Scalar v = Scalar(0);
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) v += h[a] * h[b] * published_cov_[index(k[a], k[b])];
+      // While a rest that disagrees is held (a change, until confirmed or dropped), the sigma
+      // covers a change's step.
+      if (candidate_) v += change2_;
+      out(i) = v > Scalar(0) ? v : Scalar(0);
+    }
+    return out;
+  }
 
   // A solve ended: the next one, if cells changed meanwhile.
   AccelFieldEvent after_solve() {

@@ -999,12 +999,13 @@ class FieldCalibrator {
       ++counts_.turning;
       return;
     }
-    if (from_rest && p.group == move_from_.group + 1u && gyro_field_.walking()) {
-      walk_end_ = move_end(p);  // the move into p: finished once walked
-      walk_end_pending_ = true;
-    }
+    const bool walk_ends = from_rest && p.group == move_from_.group + 1u && gyro_field_.walking();
     move_from_ = move_end(p);
     move_from_ok_ = true;
+    if (walk_ends) {
+      walk_end_ = move_from_;  // the move into p: finished once walked
+      walk_end_pending_ = true;
+    }
     predict_to(p.end_us);
     const Scalar chi2 = filter_.chi2(p.z, p.r, p.t);
     if (chi2 <= settings_.gate_chi2) {
@@ -1200,9 +1201,8 @@ class FieldCalibrator {
   // and the accelerometer's model is known well enough now (in the field, at the temperature
   // now); otherwise its blocks close as without moves, and nothing is walked.
   void update_move_keeping() {
-    AccelVector<Scalar> pa;
     Scalar shape = Scalar(0);
-    const bool on = gyro_field_.enabled() && accel_model(temperature_, pa, shape, nullptr) &&
+    const bool on = gyro_field_.enabled() && accel_shape(temperature_, shape) &&
                     shape <= settings_.gyro_matrix.accel_shape_max;
     if (on != monitor_.keeps_moves()) {
       monitor_.keep_moves(on);
@@ -1266,8 +1266,7 @@ class FieldCalibrator {
   // or for a reading it cannot take.
   bool gravity_direction(const MoveEnd& p, Vector3<Scalar>& up, Scalar& shape) const {
     AccelVector<Scalar> pa;
-    const Scalar raw = p.acc.norm();
-    if (!(raw > Scalar(0)) || !accel_model(p.t, pa, shape, &raw)) return false;
+    if (!accel_model(p.t, pa, shape)) return false;
     const Vector3<Scalar> g = accel_apply(pa, p.acc);
     const Scalar n = g.norm();
     if (!(n > Scalar(0))) return false;
@@ -1275,38 +1274,37 @@ class FieldCalibrator {
     return all_finite(up);
   }
 
-  // The accelerometer's model at temperature t (the field's, or the prior's without it) and its
-  // shape sigma: the largest of its misalignments' and relative scales' sigmas and of its bias's
-  // sigma over `gravity` (raw; nullptr: the nominal gravity in raw units). False without a model.
-  bool accel_model(Scalar t, AccelVector<Scalar>& pa, Scalar& shape, const Scalar* gravity) const {
-    AccelCalibration<Scalar> cal;
-    Vector3<Scalar> bias_sigma;
-    Scalar g = Scalar(0);
+  // The accelerometer's model at temperature t (the field's, or the prior's without it; raw
+  // units) and how well it is known (accel_shape()). False without a model.
+  bool accel_model(Scalar t, AccelVector<Scalar>& pa, Scalar& shape) const {
+    if (!accel_shape(t, shape)) return false;
     if (accel_.enabled()) {
+      AccelCalibration<Scalar> cal;
       TemperatureBias<Scalar> unused;
       accel_.model(cal, unused);
       Vector3<Scalar> b;
-      accel_.bias(t, settings_.temperature_margin_c, b, &bias_sigma);
+      accel_.bias(t, settings_.temperature_margin_c, b);
       cal.params.template segment<3>(kBiasX) = b;
-      g = settings_.accel.accel_per_m_s2 * settings_.accel.gravity;
+      pa = cal.params;
+    } else {
+      pa = base_.accel.params;
+    }
+    return all_finite(pa);
+  }
+
+  // How well the accelerometer's model at temperature t is known (accel_shape_sigma(): the
+  // field's model, or the prior's without it), without converting it. False without a model.
+  bool accel_shape(Scalar t, Scalar& shape) const {
+    if (accel_.enabled()) {
+      shape = accel_.shape_sigma(t);
     } else if (succeeded(base_.accel.status)) {
-      cal = base_.accel;
-      bias_sigma = cal.sigma.template segment<3>(kBiasX);
-      g = Scalar(9.80665) / std::abs(cal.params(kScaleX));
+      const AccelCalibration<Scalar>& c = base_.accel;
+      const Scalar g = Scalar(9.80665) / std::abs(c.params(kScaleX));  // raw units per g
+      shape = accel_shape_sigma<Scalar>(c.params, c.sigma, c.sigma.template segment<3>(kBiasX) / g);
     } else {
       return false;
     }
-    if (gravity != nullptr) g = *gravity;
-    if (!(g > Scalar(0))) return false;
-    shape = bias_sigma.cwiseAbs().maxCoeff() / g;
-    for (int i = 0; i < 3; ++i) {
-      const Scalar s = std::abs(cal.params(kScaleX + i));
-      if (!(s > Scalar(0))) return false;
-      shape = std::fmax(shape, std::fmax(std::abs(cal.sigma(kAlphaYz + i)),
-                                         std::abs(cal.sigma(kScaleX + i)) / s));
-    }
-    pa = cal.params;
-    return std::isfinite(shape) && all_finite(pa);
+    return std::isfinite(shape);
   }
 
   // The detector removes the published bias at the temperature now.
