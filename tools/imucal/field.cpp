@@ -524,10 +524,12 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
       mis[a] = 1e3 * static_cast<double>(run.gyro_matrix(a));
       ms[a] = 1e3 * static_cast<double>(run.gyro_matrix_sigma(a));
     }
-    std::fprintf(out, "\ngyro misalignment and scale %s: %u moves taken, %u refused, %u updates\n",
+    std::fprintf(out,
+                 "\ngyro misalignment and scale %s: %u moves taken, %u refused, %u updates, "
+                 "%u changes found\n",
                  run.gyro_matrix_published ? "published" : "NOT published (the prior's)",
                  run.counts.gyro_moves, run.counts.gyro_moves_refused,
-                 run.counts.gyro_matrix_updates);
+                 run.counts.gyro_matrix_updates, run.counts.gyro_matrix_changes);
     std::fprintf(out, "  scale  %s x nominal\n", vec_pm(sc, ss, "% .5f").c_str());
     std::fprintf(out, "  misalignment  %s  %s mrad\n", vec_pm(mis, ms, "% .2f").c_str(),
                  vec_pm(mis + 3, ms + 3, "% .2f").c_str());
@@ -763,7 +765,8 @@ std::string field_json(const FieldRun& run, const Options& o) {
                  {"mag_implausible", c.mag_implausible},
                  {"gyro_moves", c.gyro_moves},
                  {"gyro_moves_refused", c.gyro_moves_refused},
-                 {"gyro_matrix_updates", c.gyro_matrix_updates}};
+                 {"gyro_matrix_updates", c.gyro_matrix_updates},
+                 {"gyro_matrix_changes", c.gyro_matrix_changes}};
   Json bias = bias_json(run.published, gyro_unit_name(o.gyro_unit), run.bias, number(run.sigma),
                         run.temperature_c);
   bias["value_dps"] = vec3(scaled(run.bias, to_dps).v);

@@ -121,7 +121,9 @@ enum class FieldEventKind : std::uint8_t {
   kUpdated = 0,         // the published bias changed
   kRejected = 1,        // a rest was refused (reason)
   kHeld = 2,            // a rest outside the gate: held until a later rest confirms or drops it
-  kChangeDetected = 3,  // two rests after motion agree on a bias the filter did not predict
+  kChangeDetected = 3,  // the data prove the published value changed: two rests after motion
+                        // agree on a bias the filter did not predict, refused moves on a new
+                        // gyro matrix
   kSaved = 4,           // the published bias was saved (mark_saved())
 };
 
@@ -229,10 +231,12 @@ struct FieldCounts {
   std::uint32_t mag_changes = 0;
   std::uint32_t mag_updates = 0;
   std::uint32_t mag_implausible = 0;
-  // The gyro's misalignment and scale: moves taken, refused (outside the gate), publications.
+  // The gyro's misalignment and scale: moves taken, refused (outside the gate), publications,
+  // changes found (refused moves that one new matrix explains; each also a publication).
   std::uint32_t gyro_moves = 0;
   std::uint32_t gyro_moves_refused = 0;
   std::uint32_t gyro_matrix_updates = 0;
+  std::uint32_t gyro_matrix_changes = 0;
 };
 
 template <typename Scalar, int Events = 8>
@@ -1244,14 +1248,17 @@ class FieldCalibrator {
     const GyroFieldEvent e =
         gyro_field_.end_move(up, a.acc_var / a.acc.squaredNorm() + b.acc_var / b.acc.squaredNorm(),
                              filter_.variance(off) + std::fmax(da, db) / Scalar(3));
-    if (e == GyroFieldEvent::kRefused) {
+    if (e == GyroFieldEvent::kRefused || e == GyroFieldEvent::kChanged) {
       ++counts_.gyro_moves_refused;
       event(FieldEventKind::kRejected, FieldReason::kInconsistent, temperature_,
             gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
-      return;
+      if (e == GyroFieldEvent::kRefused) return;
+      ++counts_.gyro_matrix_changes;
+      event(FieldEventKind::kChangeDetected, FieldReason::kNone, temperature_,
+            gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
     }
     if (e == GyroFieldEvent::kTaken || e == GyroFieldEvent::kUpdated) ++counts_.gyro_moves;
-    if (e == GyroFieldEvent::kUpdated) {
+    if (e == GyroFieldEvent::kUpdated || e == GyroFieldEvent::kChanged) {
       base_.gyro.params.template head<kGyroMatrixParams>() = gyro_field_.published();
       base_.gyro.sigma.template head<kGyroMatrixParams>() = gyro_field_.published_sigmas();
       base_.gyro.status = Status::kOk;

@@ -24,6 +24,15 @@
 // the two differ significantly (chi-square(9) on the difference with both covariances) or a
 // sigma is at most better_ratio of the published one's. A move is walked as its segments come
 // (begin_move(), add_segment(), end_move()): fixed memory whatever its length.
+//
+// A change of the matrix itself (a knock that bent the board, a sensor remounted) makes the
+// moves disagree with the published one: they are refused. The last kChangeMoves refused moves
+// are kept (their rows, linearised where the estimate stood). When change_moves of them were
+// refused within twice as many moves, and one matrix explains them all (the estimate, its
+// covariance widened by the datasheet's tolerances, takes each within the gate in turn), the
+// matrix changed: that estimate is published at once (kChanged). Refusals at 0.1 % each, that
+// many within so few moves, are far beyond 5 sigma of chance; a disturbed rest refuses one move
+// and is not explained with the others.
 // Fixed memory, no allocation, no exceptions. Header-only.
 #pragma once
 
@@ -38,6 +47,9 @@
 #include "imucal/types.hpp"
 
 namespace imucal {
+
+// The refused moves kept to look for a change of the matrix.
+constexpr int kChangeMoves = 5;
 
 template <typename Scalar>
 struct GyroFieldSettings {
@@ -57,6 +69,8 @@ struct GyroFieldSettings {
   Scalar publish_chi2 = Scalar(16.92);    // chi-square(9) at 5 %: the published one is replaced
   Scalar better_ratio = Scalar(0.25);     // ... or a sigma squared is at most this share
   int segments_per_step = 4;              // segments a call folds
+  int change_moves =
+      5;  // refused moves, within twice as many, that prove a change (<= kChangeMoves)
 
   bool valid() const {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
@@ -64,7 +78,8 @@ struct GyroFieldSettings {
            positive(segment_max_error) && std::isfinite(move_floor) && move_floor >= Scalar(0) &&
            std::isfinite(min_angle) && min_angle >= Scalar(0) && positive(accel_shape_max) &&
            positive(gate_chi2) && positive(publish_chi2) && positive(better_ratio) &&
-           better_ratio < Scalar(1) && segments_per_step >= 1;
+           better_ratio < Scalar(1) && segments_per_step >= 1 && change_moves >= 2 &&
+           change_moves <= kChangeMoves;
   }
 };
 
@@ -73,6 +88,7 @@ enum class GyroFieldEvent : std::uint8_t {
   kTaken = 1,    // a move was taken, the published model stays
   kRefused = 2,  // a move's residual was outside the gate
   kUpdated = 3,  // a move was taken and the model published
+  kChanged = 4,  // a move was refused, and with the refused before it proves a change: published
 };
 
 template <typename Scalar>
@@ -92,6 +108,8 @@ class GyroField {
         s.valid() && all_finite(prior) && all_finite(sigma) && (sigma.array() > Scalar(0)).all();
     walking_ = false;
     moves_ = refused_ = 0;
+    kept_ = next_ = 0;
+    seen_ = changes_ = 0;
     has_published_ = false;
     chi2_ = Scalar(0);
     shape_ = Scalar(0);
@@ -101,6 +119,8 @@ class GyroField {
     p_.setZero();
     p_.diagonal() = sigma.cwiseAbs2();
     published_p_ = p_;
+    kept_ = next_ = 0;
+    seen_ = changes_ = 0;
     return Status::kOk;
   }
 
@@ -182,8 +202,10 @@ class GyroField {
   const Matrix& covariance() const { return p_; }
   std::uint32_t moves() const { return moves_; }
   std::uint32_t refused() const { return refused_; }
-  // The statistic of the last decision (the gate's for kRefused, the publication's for
-  // kUpdated), and why the last kUpdated came: 0 first, 1 significant, 2 better.
+  std::uint32_t changes() const { return changes_; }
+  // The statistic of the last decision (the gate's for kRefused and kChanged, the
+  // publication's for kUpdated), and why the last publication came: 0 first, 1 significant,
+  // 2 better, 3 a change.
   Scalar last_chi2() const { return chi2_; }
   int update_reason() const { return reason_; }
 
@@ -216,35 +238,83 @@ class GyroField {
            Scalar(3);
   }
 
-  GyroFieldEvent update(const Rows& rows) {
-    const Eigen::Matrix<Scalar, 2, N> j = rows.j.template leftCols<N>();
-    const Eigen::Matrix<Scalar, N, 2> pj = p_ * j.transpose();
-    Eigen::Matrix<Scalar, 2, 2> s = j * pj;
-    s(0, 0) += noise_;
-    s(1, 1) += noise_;
+  // A move's rows, linearised where the estimate stood, and its noise.
+  struct Move {
+    Eigen::Matrix<Scalar, 2, N> j = Eigen::Matrix<Scalar, 2, N>::Zero();
+    Eigen::Matrix<Scalar, 2, 1> r = Eigen::Matrix<Scalar, 2, 1>::Zero();
+    Scalar noise = Scalar(0);
+    std::uint32_t seen = 0;  // its number among the moves gated
+  };
+
+  // One move's Kalman update of (theta, p), the rows linearised at `at`: gated (false, nothing
+  // changed, when outside the gate or degenerate; chi2 the gate's statistic, 0 if degenerate).
+  bool kalman(const Move& m, const Vector& at, Vector& theta, Matrix& p, Scalar& chi2) const {
+    const Eigen::Matrix<Scalar, N, 2> pj = p * m.j.transpose();
+    Eigen::Matrix<Scalar, 2, 2> s = m.j * pj;
+    s(0, 0) += m.noise;
+    s(1, 1) += m.noise;
     const Scalar det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
-    if (!(det > Scalar(0))) {
-      ++refused_;
-      chi2_ = Scalar(0);
-      return GyroFieldEvent::kRefused;
-    }
+    chi2 = Scalar(0);
+    if (!(det > Scalar(0))) return false;
     Eigen::Matrix<Scalar, 2, 2> si;
     si << s(1, 1), -s(0, 1), -s(1, 0), s(0, 0);
     si /= det;
-    chi2_ = rows.r.dot(si * rows.r);
-    if (!(chi2_ <= settings_.gate_chi2)) {
-      ++refused_;
-      return GyroFieldEvent::kRefused;
-    }
+    const Eigen::Matrix<Scalar, 2, 1> r = m.r + m.j * (theta - at);
+    chi2 = r.dot(si * r);
+    if (!(chi2 <= settings_.gate_chi2)) return false;
     // Joseph's form keeps the covariance symmetric and positive in float.
     const Eigen::Matrix<Scalar, N, 2> k = pj * si;
-    theta_ -= k * rows.r;
-    const Matrix a = Matrix::Identity() - k * j;
-    p_ = a * p_ * a.transpose() + noise_ * (k * k.transpose());
-    p_ = Scalar(0.5) * (p_ + p_.transpose()).eval();
+    theta -= k * r;
+    const Matrix a = Matrix::Identity() - k * m.j;
+    p = a * p * a.transpose() + m.noise * (k * k.transpose());
+    p = Scalar(0.5) * (p + p.transpose()).eval();
+    return true;
+  }
+
+  GyroFieldEvent update(const Rows& rows) {
+    Move m;
+    m.j = rows.j.template leftCols<N>();
+    m.r = rows.r;
+    m.noise = noise_;
+    m.seen = ++seen_;
+    if (!kalman(m, theta_, theta_, p_, chi2_)) {
+      ++refused_;
+      return chi2_ > Scalar(0) && changed(m) ? GyroFieldEvent::kChanged : GyroFieldEvent::kRefused;
+    }
     ++moves_;
     if (move_shape_ > shape_) shape_ = move_shape_;
     return consider_publishing();
+  }
+
+  // A move outside the gate is kept; true when it and the ones kept before it prove that the
+  // matrix changed (see the header), which is then published.
+  bool changed(const Move& m) {
+    moves_kept_[next_] = m;
+    next_ = (next_ + 1) % kChangeMoves;
+    if (kept_ < kChangeMoves) ++kept_;
+    const int need = settings_.change_moves;
+    if (kept_ < need) return false;
+    // The oldest of the last `need`, and whether they came within twice as many moves.
+    const int first = (next_ + kChangeMoves - need) % kChangeMoves;
+    if (m.seen - moves_kept_[first].seen >= static_cast<std::uint32_t>(2 * need)) return false;
+    Vector theta = theta_;
+    Matrix p = p_;
+    for (int i = 0; i < N; ++i) {
+      const Scalar t =
+          i >= kGyroScaleX ? settings_.scale_sigma * theta_(i) : settings_.misalignment_sigma;
+      p(i, i) += t * t;
+    }
+    Scalar chi2 = Scalar(0);
+    for (int k = 0; k < need; ++k)
+      if (!kalman(moves_kept_[(first + k) % kChangeMoves], theta_, theta, p, chi2)) return false;
+    if (!all_finite(theta)) return false;
+    theta_ = published_ = theta;
+    p_ = published_p_ = p;
+    has_published_ = true;
+    reason_ = 3;
+    kept_ = 0;
+    ++changes_;
+    return true;
   }
 
   GyroFieldEvent consider_publishing() {
@@ -294,6 +364,10 @@ class GyroField {
   Scalar chi2_ = Scalar(0);
   int reason_ = 0;
   std::uint32_t moves_ = 0, refused_ = 0;
+  // The last refused moves (a ring: next_ the next slot, kept_ how many), for a change.
+  Move moves_kept_[kChangeMoves]{};
+  int kept_ = 0, next_ = 0;
+  std::uint32_t seen_ = 0, changes_ = 0;
 };
 
 }  // namespace imucal
