@@ -1253,15 +1253,17 @@ class FieldCalibrator {
       event(FieldEventKind::kRejected, FieldReason::kInconsistent, temperature_,
             gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
       if (e == GyroFieldEvent::kRefused) return;
-      ++counts_.gyro_matrix_changes;
-      event(FieldEventKind::kChangeDetected, FieldReason::kNone, temperature_,
-            gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
     }
     if (e == GyroFieldEvent::kTaken || e == GyroFieldEvent::kUpdated) ++counts_.gyro_moves;
     if (e == GyroFieldEvent::kUpdated || e == GyroFieldEvent::kChanged) {
       base_.gyro.params.template head<kGyroMatrixParams>() = gyro_field_.published();
       base_.gyro.sigma.template head<kGyroMatrixParams>() = gyro_field_.published_sigmas();
       base_.gyro.status = Status::kOk;
+      if (e == GyroFieldEvent::kChanged) {  // the new matrix's scales are the event's value
+        ++counts_.gyro_matrix_changes;
+        event(FieldEventKind::kChangeDetected, FieldReason::kNone, temperature_,
+              gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
+      }
       model_published(gyro_field_, FieldSensor::kGyroMatrix, counts_.gyro_matrix_updates);
     }
   }
@@ -1273,7 +1275,7 @@ class FieldCalibrator {
   // or for a reading it cannot take.
   bool gravity_direction(const MoveEnd& p, Vector3<Scalar>& up, Scalar& shape) const {
     AccelVector<Scalar> pa;
-    if (!accel_model(p.t, pa, shape)) return false;
+    if (!(p.acc.squaredNorm() > Scalar(0)) || !accel_model(p.t, pa, shape)) return false;
     const Vector3<Scalar> g = accel_apply(pa, p.acc);
     const Scalar n = g.norm();
     if (!(n > Scalar(0))) return false;

@@ -27,9 +27,9 @@
 //
 // A change of the matrix itself (a knock that bent the board, a sensor remounted) makes the
 // moves disagree with the published one: they are refused. The last kChangeMoves refused moves
-// are kept (their rows, linearised where the estimate stood). When change_moves of them were
-// refused within twice as many moves, and one matrix explains them all (the estimate, its
-// covariance widened by the datasheet's tolerances, takes each within the gate in turn), the
+// are kept (their rows, moved along with the estimate as later moves are taken). When change_moves
+// of them were refused within twice as many moves, and one matrix explains them all (the estimate,
+// its covariance widened by the datasheet's tolerances, takes each within the gate in turn), the
 // matrix changed: that estimate is published at once (kChanged). Refusals at 0.1 % each, that
 // many within so few moves, are far beyond 5 sigma of chance; a disturbed rest refuses one move
 // and is not explained with the others.
@@ -119,8 +119,6 @@ class GyroField {
     p_.setZero();
     p_.diagonal() = sigma.cwiseAbs2();
     published_p_ = p_;
-    kept_ = next_ = 0;
-    seen_ = changes_ = 0;
     return Status::kOk;
   }
 
@@ -171,6 +169,7 @@ class GyroField {
     const Status s = problem_.end_move(parameters(), gb, rows, cursor_);
     if (s != Status::kOk || rows.n != 2 || !all_finite(rows.j) || !all_finite(rows.r)) {
       ++refused_;
+      ++seen_;
       chi2_ = Scalar(0);
       return GyroFieldEvent::kRefused;
     }
@@ -238,12 +237,14 @@ class GyroField {
            Scalar(3);
   }
 
-  // A move's rows, linearised where the estimate stood, and its noise.
+  // A move's rows, linearised where the estimate stands (kept ones are moved along with it), and
+  // its noise.
   struct Move {
     Eigen::Matrix<Scalar, 2, N> j = Eigen::Matrix<Scalar, 2, N>::Zero();
     Eigen::Matrix<Scalar, 2, 1> r = Eigen::Matrix<Scalar, 2, 1>::Zero();
     Scalar noise = Scalar(0);
-    std::uint32_t seen = 0;  // its number among the moves gated
+    Scalar shape = Scalar(0);  // the accelerometer's shape sigma it was taken with
+    std::uint32_t seen = 0;    // its number among the moves gated
   };
 
   // One move's Kalman update of (theta, p), the rows linearised at `at`: gated (false, nothing
@@ -276,13 +277,18 @@ class GyroField {
     m.j = rows.j.template leftCols<N>();
     m.r = rows.r;
     m.noise = noise_;
+    m.shape = move_shape_;
     m.seen = ++seen_;
+    const Vector before = theta_;
     if (!kalman(m, theta_, theta_, p_, chi2_)) {
       ++refused_;
       return chi2_ > Scalar(0) && changed(m) ? GyroFieldEvent::kChanged : GyroFieldEvent::kRefused;
     }
     ++moves_;
-    if (move_shape_ > shape_) shape_ = move_shape_;
+    if (m.shape > shape_) shape_ = m.shape;
+    // The refused moves kept stay linearised where the estimate now stands.
+    const Vector step = theta_ - before;
+    for (int k = 0; k < kept_; ++k) moves_kept_[k].r += moves_kept_[k].j * step;
     return consider_publishing();
   }
 
@@ -304,15 +310,19 @@ class GyroField {
           i >= kGyroScaleX ? settings_.scale_sigma * theta_(i) : settings_.misalignment_sigma;
       p(i, i) += t * t;
     }
-    Scalar chi2 = Scalar(0);
-    for (int k = 0; k < need; ++k)
-      if (!kalman(moves_kept_[(first + k) % kChangeMoves], theta_, theta, p, chi2)) return false;
+    Scalar chi2 = Scalar(0), shape = shape_;
+    for (int k = 0; k < need; ++k) {
+      const Move& kept = moves_kept_[(first + k) % kChangeMoves];
+      if (!kalman(kept, theta_, theta, p, chi2)) return false;
+      shape = std::fmax(shape, kept.shape);
+    }
     if (!all_finite(theta)) return false;
+    shape_ = shape;
     theta_ = published_ = theta;
     p_ = published_p_ = p;
     has_published_ = true;
     reason_ = 3;
-    kept_ = 0;
+    kept_ = next_ = 0;
     ++changes_;
     return true;
   }
