@@ -69,8 +69,8 @@ struct GyroFieldSettings {
   Scalar publish_chi2 = Scalar(16.92);    // chi-square(9) at 5 %: the published one is replaced
   Scalar better_ratio = Scalar(0.25);     // ... or a sigma squared is at most this share
   int segments_per_step = 4;              // segments a call folds
-  int change_moves =
-      5;  // refused moves, within twice as many, that prove a change (<= kChangeMoves)
+  // Refused moves, within twice as many moves, that prove a change (at most kChangeMoves).
+  int change_moves = 5;
 
   bool valid() const {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
@@ -109,7 +109,7 @@ class GyroField {
     walking_ = false;
     moves_ = refused_ = 0;
     kept_ = next_ = 0;
-    seen_ = changes_ = 0;
+    changes_ = 0;
     has_published_ = false;
     chi2_ = Scalar(0);
     shape_ = Scalar(0);
@@ -169,7 +169,6 @@ class GyroField {
     const Status s = problem_.end_move(parameters(), gb, rows, cursor_);
     if (s != Status::kOk || rows.n != 2 || !all_finite(rows.j) || !all_finite(rows.r)) {
       ++refused_;
-      ++seen_;
       chi2_ = Scalar(0);
       return GyroFieldEvent::kRefused;
     }
@@ -244,7 +243,7 @@ class GyroField {
     Eigen::Matrix<Scalar, 2, 1> r = Eigen::Matrix<Scalar, 2, 1>::Zero();
     Scalar noise = Scalar(0);
     Scalar shape = Scalar(0);  // the accelerometer's shape sigma it was taken with
-    std::uint32_t seen = 0;    // its number among the moves gated
+    std::uint32_t seen = 0;    // its number among the moves ended (taken or refused)
   };
 
   // One move's Kalman update of (theta, p), the rows linearised at `at`: gated (false, nothing
@@ -278,7 +277,7 @@ class GyroField {
     m.r = rows.r;
     m.noise = noise_;
     m.shape = move_shape_;
-    m.seen = ++seen_;
+    m.seen = moves_ + refused_ + 1u;
     const Vector before = theta_;
     if (!kalman(m, theta_, theta_, p_, chi2_)) {
       ++refused_;
@@ -377,7 +376,7 @@ class GyroField {
   // The last refused moves (a ring: next_ the next slot, kept_ how many), for a change.
   Move moves_kept_[kChangeMoves]{};
   int kept_ = 0, next_ = 0;
-  std::uint32_t seen_ = 0, changes_ = 0;
+  std::uint32_t changes_ = 0;
 };
 
 }  // namespace imucal
