@@ -485,15 +485,16 @@ struct LifeRun {
   double change_after_knock_s = -1.0;
   double knock_s = -1.0;
   // The magnetometer's published hard iron: per second, the norm of its error (uT); (error /
-  // sigma)^2 summed over seconds and axes before the magnetisation change and from its detection
-  // on; false updates (more than 5 sigma on an axis), publications, changes, the time from the
-  // change to its detection.
+  // sigma)^2 summed over seconds and axes; false updates (more than 5 sigma on an axis),
+  // publications, changes, the time from the change to its detection, and the seconds after the
+  // change that its sigma did not cover (more than 5 sigma on an axis).
   std::vector<double> mag_err;
   double mag_z2 = 0.0;
   std::size_t mag_zn = 0;
   int mag_false_updates = 0;
   std::uint32_t mag_updates = 0, mag_changes = 0;
   double hard_iron_step_s = -1.0, mag_change_after_step_s = -1.0;
+  int mag_uncovered_s = 0;
   double mag_honesty() const { return std::sqrt(mag_z2 / static_cast<double>(mag_zn)); }
   double mag_median() const {
     std::vector<double> e = mag_err;
@@ -543,12 +544,12 @@ LifeRun run_life(const char* name, double hours, bool mag, std::uint64_t seed = 
       const double ut = sheet.mag_ut_per_count;
       const Vector3<double> error = h.cast<double>() - t.hard_iron;
       out.mag_err.push_back(error.norm() * ut);
-      // Before the change, or once it is detected: between the two nothing has measured it yet.
-      const bool unseen = out.hard_iron_step_s >= 0.0 && s.t_s >= out.hard_iron_step_s &&
-                          out.mag_change_after_step_s < 0.0;
+      const bool after_step = out.hard_iron_step_s >= 0.0 && s.t_s >= out.hard_iron_step_s;
+      bool uncovered = false;
       for (int i = 0; i < 3; ++i) {
         const double z = error(i) / static_cast<double>(hs(i));
-        if (!unseen) out.mag_z2 += z * z;
+        out.mag_z2 += z * z;
+        uncovered = uncovered || (after_step && std::fabs(z) > 5.0);
         if (f.counts().mag_updates != out.mag_updates && std::fabs(z) > 5.0) {
           ++out.mag_false_updates;
           ADD_FAILURE() << name << ": false magnetometer update at " << s.t_s << " s, axis " << i
@@ -556,7 +557,8 @@ LifeRun run_life(const char* name, double hours, bool mag, std::uint64_t seed = 
                         << static_cast<double>(hs(i)) * ut << " (uT)";
         }
       }
-      if (!unseen) out.mag_zn += 3;
+      out.mag_zn += 3;
+      out.mag_uncovered_s += uncovered;
       out.mag_updates = f.counts().mag_updates;
     }
     Vector3<float> ab, as;
@@ -623,11 +625,23 @@ TEST(FieldLife, DeskBiasWithinAFewMdegPerSecondSigmaHonestKnockFound) {
   EXPECT_EQ(r.accel_false_updates, 0);
   EXPECT_GT(r.accel_honesty(), 0.5);
   EXPECT_LT(r.accel_honesty(), 1.3);
+  // The magnetometer at rest: a magnetisation change during a rest shows in the next reading
+  // looked at (its field's strength, or its angle to gravity), and the sigma
+  // covers it from then on (one reading a second is looked at: the second of the change and the
+  // next may be uncovered). The sigma is conservative here: each cell's floor (0.3 uT) stands for
+  // a field not quite uniform, and the simulated one is.
+  ASSERT_GE(r.hard_iron_step_s, 0.0);
+  EXPECT_GE(r.mag_changes, 1u);
+  EXPECT_EQ(r.mag_false_updates, 0);
+  EXPECT_LE(r.mag_uncovered_s, 2);
+  EXPECT_GT(r.mag_honesty(), 0.5);
+  EXPECT_LT(r.mag_honesty(), 1.3);
 }
 
 // In the hand and the pocket: the magnetometer's hard iron from the readings in motion and the
-// rests, within a few tenths of a microtesla, its sigma honest while nothing unseen changed it; a
-// magnetisation change found within minutes and followed.
+// rests, within a few tenths of a microtesla, its sigma honest; a magnetisation change in motion
+// covered by the sigma from the next reading looked at (one a second), found within minutes and
+// followed.
 TEST(FieldLife, HandheldHardIronWithinTenthsOfAMicroteslaChangeFound) {
   const LifeRun r = run_life("handheld", 12.0, true);
   ASSERT_FALSE(r.mag_err.empty());
@@ -635,9 +649,10 @@ TEST(FieldLife, HandheldHardIronWithinTenthsOfAMicroteslaChangeFound) {
   // per axis, 0.2 uT as a norm.
   EXPECT_LT(r.mag_median(), 0.5);
   EXPECT_EQ(r.mag_false_updates, 0);
-  EXPECT_GT(r.mag_honesty(), 0.5);
-  EXPECT_LT(r.mag_honesty(), 1.5);
+  EXPECT_GT(r.mag_honesty(), 0.7);
+  EXPECT_LT(r.mag_honesty(), 1.3);
   ASSERT_GE(r.hard_iron_step_s, 0.0);
+  EXPECT_LE(r.mag_uncovered_s, 2);
   EXPECT_GE(r.mag_changes, 1u);
   EXPECT_GT(r.mag_change_after_step_s, 0.0);
   EXPECT_LT(r.mag_change_after_step_s, 600.0);

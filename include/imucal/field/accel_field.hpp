@@ -222,8 +222,7 @@ class AccelField {
                       std::uint64_t time_us, std::uint32_t group, Scalar other_chi2 = Scalar(0)) {
     if (!valid_ || !all_finite(mean_raw) || !std::isfinite(mean_variance))
       return AccelFieldEvent::kNone;
-    Pose p;
-    p.x = mean_raw / g_counts_;
+    Pose p = pose(mean_raw, mean_variance, t);
     // Through the published model, allowing for its bias's sigma (a magnetometer's hard iron is
     // as large as the field until it is known).
     const Scalar norm2 = Scalar(1) - residual(published_, p.x, t, nullptr);
@@ -231,9 +230,6 @@ class AccelField {
         settings_.max_norm_error + Scalar(3) * published_sigma_.template segment<3>(kBiasX).norm();
     if (!(std::fabs(std::sqrt(norm2 > Scalar(0) ? norm2 : Scalar(0)) - Scalar(1)) <= allowance))
       return AccelFieldEvent::kImplausible;
-    const Scalar floor2 = Scalar(1) / (Scalar(4) * weight_cap_);
-    p.w = Scalar(1) / (Scalar(4) * (mean_variance / (g_counts_ * g_counts_) + floor2));
-    p.t = t;
     p.time_us = time_us;
     p.group = group;
     age(time_us);
@@ -259,6 +255,23 @@ class AccelField {
     take(p);
     return e;
   }
+
+  // Whether a reading (raw; the variance of its mean per axis, raw^2) disagrees with the
+  // published model alone, at the reference temperature: add() would not take it. A cheap look
+  // between the readings it is given (the residual against the reading's variance alone first:
+  // most agree by that bound already); false for one not finite.
+  bool disagrees(const Vector3<Scalar>& mean_raw, Scalar mean_variance) const {
+    if (!valid_ || !all_finite(mean_raw) || !std::isfinite(mean_variance)) return false;
+    const Pose p = pose(mean_raw, mean_variance, std::numeric_limits<Scalar>::quiet_NaN());
+    const Scalar e = residual(published_, p.x, p.t, nullptr);
+    if (!(e * e * p.w > settings_.gate_chi2)) return false;
+    typename Ne::Vector j;
+    return against_published(p, j, nullptr) > settings_.gate_chi2;
+  }
+  // The chi-square(1) beyond which a rest disagrees with the model.
+  Scalar gate() const { return settings_.gate_chi2; }
+  // A rest that disagreed is held, until a later one confirms or drops it (the sigma is widened).
+  bool holding() const { return candidate_; }
 
   // One slice of a pending solve (a row, a factorisation, or the sigmas); kOk when nothing is
   // pending. Returns kUpdated from the slice that published.
@@ -526,9 +539,8 @@ class AccelField {
       against_model =
           es * es / (Scalar(1) / p.w + quadratic(solution_cov_, j) + curvature(solution_cov_));
     }
-    const Scalar e = residual(published_, p.x, p.t, &j);
-    const Scalar published =
-        e * e / (Scalar(1) / p.w + quadratic(published_cov_, j) + curvature(published_cov_));
+    Scalar e = Scalar(0);
+    const Scalar published = against_published(p, j, &e);
     if (published > against_model) against_model = published;
     const std::size_t i = find_cell(p);
     if (i == n_cells_) return against_model;
@@ -539,6 +551,23 @@ class AccelField {
     const Scalar against_cell =
         d * d / (Scalar(1) / p.w + Scalar(1) / wc + quadratic(published_cov_, j - jc));
     return against_cell > against_model ? against_cell : against_model;
+  }
+
+  // A pose's chi-square(1) against the published model; j and e: its Jacobian row and residual.
+  Scalar against_published(const Pose& p, typename Ne::Vector& j, Scalar* e_out) const {
+    const Scalar e = residual(published_, p.x, p.t, &j);
+    if (e_out != nullptr) *e_out = e;
+    return e * e / (Scalar(1) / p.w + quadratic(published_cov_, j) + curvature(published_cov_));
+  }
+
+  // A mean reading (raw) and its variance per axis (raw^2) as a pose at temperature t.
+  Pose pose(const Vector3<Scalar>& mean_raw, Scalar mean_variance, Scalar t) const {
+    Pose p;
+    p.x = mean_raw / g_counts_;
+    const Scalar floor2 = Scalar(1) / (Scalar(4) * weight_cap_);
+    p.w = Scalar(1) / (Scalar(4) * (mean_variance / (g_counts_ * g_counts_) + floor2));
+    p.t = t;
+    return p;
   }
 
   // The cell of a pose's direction (within 2 degrees) and temperature band; n_cells_ if none.
@@ -558,12 +587,18 @@ class AccelField {
     return static_cast<std::size_t>(r >= c ? detail::packed_index(kParams, r, c)
                                            : detail::packed_index(kParams, c, r));
   }
-  // j' C j for a packed C.
+  // j' C j for a packed C, column by column from the diagonal down (a column's entries are
+  // consecutive), over j's entries up to its last nonzero one (at the reference temperature, and
+  // always for the magnetometer, the slope's and curvature's are zero).
   static Scalar quadratic(const Scalar* c, const typename Ne::Vector& j) {
+    int n = kParams;
+    while (n > 0 && j(n - 1) == Scalar(0)) --n;
     Scalar sum = Scalar(0);
-    for (int col = 0; col < kParams; ++col) {
-      sum += j(col) * j(col) * c[index(col, col)];
-      for (int r = col + 1; r < kParams; ++r) sum += Scalar(2) * j(r) * j(col) * c[index(r, col)];
+    for (int col = 0; col < n; ++col) {
+      const Scalar* column = c + index(col, col);
+      Scalar off = Scalar(0);
+      for (int r = col + 1; r < n; ++r) off += j(r) * column[r - col];
+      sum += j(col) * (j(col) * column[0] + Scalar(2) * off);
     }
     return sum;
   }

@@ -278,7 +278,7 @@ class FieldCalibrator {
     mag_sq_ = Scalar(0);
     mag_n_ = 0;
     mag_reading_var_ = Scalar(0);
-    mag_offered_us_ = 0;
+    mag_offered_us_ = mag_looked_us_ = 0;
     mag_first_ = mag_due_ = 0;
     reset_dip();
     took_ = false;
@@ -457,6 +457,7 @@ class FieldCalibrator {
   // (nothing taken) for a NaN or infinity.
   Status add_mag(const Vector3<Scalar>& m) {
     if (!all_finite(m)) return Status::kNonFiniteInput;
+    look_at_mag(m);
     if (!monitor_.resting()) {
       mag_sum_.setZero();
       mag_sq_ = Scalar(0);
@@ -780,28 +781,11 @@ class FieldCalibrator {
     const MagPiece& p = mag_pieces_[mag_first_];
     mag_first_ ^= 1u;
     --mag_due_;
-    // The field's angle to gravity through the published model: a magnetisation change that
-    // leaves the field's strength at this pose as it was turns its direction.
-    // Gravity through the accelerometer's published bias, and that bias's sigma as a direction.
-    Vector3<Scalar> gravity = p.acc, ab, as;
-    Scalar gravity_var = Scalar(0.0025);  // 50 mg, without the accelerometer's model
-    if (accel_.enabled()) {
-      accel_.bias(p.t, settings_.temperature_margin_c, ab, &as);
-      gravity += ab;
-      gravity_var = as.squaredNorm() / p.acc.squaredNorm();
-    }
-    const Scalar s = dip_sine(p.mag, gravity);
-    // In the pose of the last rest taken (gravity within 2 degrees), the accelerometer's error is
-    // the same: the dip is compared with that pose's alone, without it.
-    const Vector3<Scalar> up = gravity.normalized();
-    const bool same_pose = pose_n_ > 0u && up.dot(pose_up_) > Scalar(0.99939);
-    Scalar other = dip_chi2(s, gravity_var);
-    if (same_pose && std::isfinite(s)) {
-      const Scalar hard = mag_.published_sigmas().template segment<3>(kBiasX).squaredNorm();
-      const Scalar d = s - pose_dip_;
-      const Scalar near = d * d / (hard + Scalar(1e-4));
-      if (near > other) other = near;
-    }
+    Scalar s = Scalar(0);
+    Vector3<Scalar> up;
+    bool same_pose = false;
+    const Scalar other =
+        dip_disagreement(p.mag, p.acc, p.t, Scalar(0), Scalar(-1), s, up, same_pose);
     const AccelFieldEvent e = mag_.add(p.mag, p.variance, std::numeric_limits<Scalar>::quiet_NaN(),
                                        p.end_us, p.group, other);
     if (e == AccelFieldEvent::kNone && std::isfinite(s)) {  // taken: the dip's mean and spread
@@ -818,6 +802,43 @@ class FieldCalibrator {
     }
     model_took(e, mag_, FieldSensor::kMag, p.t, counts_.mag_held, counts_.mag_implausible,
                counts_.mag_changes);
+  }
+
+  // The field's angle to gravity through the published model, against the rests' taken before:
+  // a magnetisation change that leaves the field's strength at this pose as it was turns its
+  // direction. acc: the accelerometer's mean (raw), its published bias added, that bias's sigma
+  // taken as a direction's; extra: the sine's variance beyond the rests' (a single reading's
+  // noise). Chi-square(1); s (the dip's sine), up (gravity's direction) and same_pose (within 2
+  // degrees of the last rest taken, where the accelerometer's error is the same: the dip is
+  // compared with that pose's alone, without it) for the caller. With decide_at >= 0 the caller
+  // asks only whether it exceeds decide_at: the answer may be a bound that tells.
+  Scalar dip_disagreement(const Vector3<Scalar>& mag, const Vector3<Scalar>& acc, Scalar t,
+                          Scalar extra, Scalar decide_at, Scalar& s, Vector3<Scalar>& up,
+                          bool& same_pose) const {
+    Vector3<Scalar> gravity = acc, ab, as;
+    if (accel_.enabled()) {
+      accel_.bias(t, settings_.temperature_margin_c, ab);
+      gravity += ab;
+    }
+    s = dip_sine(mag, gravity);
+    up = gravity.normalized();
+    same_pose = pose_n_ > 0u && up.dot(pose_up_) > Scalar(0.99939);
+    Scalar other = Scalar(0);
+    if (same_pose && std::isfinite(s)) {
+      const Scalar hard = mag_.published_sigmas().template segment<3>(kBiasX).squaredNorm();
+      const Scalar d = s - pose_dip_;
+      other = d * d / (hard + extra + Scalar(1e-4));
+    }
+    // Across poses, without gravity's variance first: the chi-square is at most that.
+    if (decide_at >= Scalar(0) && (other > decide_at || !(dip_chi2(s, extra) > decide_at)))
+      return other;
+    Scalar gravity_var = Scalar(0.0025);  // 50 mg, without the accelerometer's model
+    if (accel_.enabled()) {
+      accel_.bias(t, settings_.temperature_margin_c, ab, &as);
+      gravity_var = as.squaredNorm() / acc.squaredNorm();
+    }
+    const Scalar across = dip_chi2(s, gravity_var + extra);
+    return across > other ? across : other;
   }
 
   // The dip's statistics start again (a change, a new model, start()).
@@ -862,9 +883,38 @@ class FieldCalibrator {
     if ((mag_.full() || mag_.covers(m)) && mag_offered_us_ != 0 &&
         static_cast<Scalar>(since / 1000u) < Scalar(1000) * settings_.mag.confirm_seconds)
       return;
+    offer_mag(m, Scalar(0));
+  }
+
+  // One reading a second, at rest or in motion, against the published model: its strength, and
+  // at rest its angle to gravity (from the detector's moving mean). One that disagrees is offered
+  // at once, and held (the published sigma widens by a change's step until a later reading or
+  // rest confirms or drops it), rather than when its direction or its rest's end next comes up.
+  void look_at_mag(const Vector3<Scalar>& m) {
+    if (!mag_.enabled() || !(mag_reading_var_ > Scalar(0)) || mag_.holding()) return;
+    if (mag_looked_us_ != 0 && elapsed_us_ - mag_looked_us_ < 1000000u) return;
+    mag_looked_us_ = elapsed_us_ > 0 ? elapsed_us_ : 1u;
+    if (mag_.disagrees(m, mag_reading_var_)) {
+      offer_mag(m, Scalar(0));
+      return;
+    }
+    if (!monitor_.resting()) return;
+    Scalar s = Scalar(0);
+    Vector3<Scalar> up;
+    bool same_pose = false;
+    const Scalar gate = mag_.gate();
+    const Scalar other = dip_disagreement(m, monitor_.accel_now(), temperature_,
+                                          mag_reading_var_ / (mag_g_counts_ * mag_g_counts_), gate,
+                                          s, up, same_pose);
+    if (other > gate) offer_mag(m, other);
+  }
+
+  // A single reading to the magnetometer's model, with the noise the rests measured; other: its
+  // disagreement measured otherwise (the dip), as for a rest.
+  void offer_mag(const Vector3<Scalar>& m, Scalar other) {
     mag_offered_us_ = elapsed_us_ > 0 ? elapsed_us_ : 1u;
     const AccelFieldEvent e = mag_.add(
-        m, mag_reading_var_, std::numeric_limits<Scalar>::quiet_NaN(), elapsed_us_, group_);
+        m, mag_reading_var_, std::numeric_limits<Scalar>::quiet_NaN(), elapsed_us_, group_, other);
     model_took(e, mag_, FieldSensor::kMag, temperature_, counts_.mag_held, counts_.mag_implausible,
                counts_.mag_changes);
   }
@@ -1425,7 +1475,8 @@ class FieldCalibrator {
   Scalar pose_dip_ = Scalar(0);
   Scalar mag_g_counts_ = Scalar(1);   // raw units per the field's strength
   bool took_ = false;                 // a piece was taken in this call
-  std::uint64_t mag_offered_us_ = 0;  // when a reading in motion was last offered
+  std::uint64_t mag_offered_us_ = 0;  // when a single reading was last offered
+  std::uint64_t mag_looked_us_ = 0;   // when one was last looked at (look_at_mag())
   Matrix3<Scalar> mag_frame_ =
       Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
   MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty

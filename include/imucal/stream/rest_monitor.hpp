@@ -203,6 +203,8 @@ class RestMonitor {
   std::uint32_t samples_refused() const { return checks_.refused(); }
   // The raw gyro reading at zero rate now: the latest rest's mean, or the setting before any.
   Vector3<Scalar> gyro_rest_reading() const { return -segmenter_.gyro_bias(); }
+  // The accelerometer's moving mean (raw), as the last sub-block left it: gravity, at rest.
+  const Vector3<Scalar>& accel_now() const { return segmenter_.detector().moving_mean(); }
   // Sets the zero-rate reading the detector removes from the gyro (from the end of the sub-block
   // in progress). kNonFiniteInput, nothing changed, for a NaN or infinity.
   Status set_gyro_rest_reading(const Vector3<Scalar>& reading) {
