@@ -237,9 +237,12 @@ class AccelField {
     Scalar chi2 = disagreement(p);
     if (other_chi2 > chi2) chi2 = other_chi2;
     last_chi2_ = chi2;
+    // A rest that ended before the held one (the caller judges rests a piece late, and may hold
+    // a single reading meanwhile) neither confirms nor drops it.
+    const bool later = candidate_ && time_us >= candidate_pose_.time_us;
     if (chi2 > settings_.gate_chi2) {
-      if (candidate_ && (group != candidate_pose_.group ||
-                         seconds(time_us - candidate_pose_.time_us) >= settings_.confirm_seconds)) {
+      if (later && (group != candidate_pose_.group ||
+                    seconds(time_us - candidate_pose_.time_us) >= settings_.confirm_seconds)) {
         change(p);
         return AccelFieldEvent::kChangeDetected;
       }
@@ -248,7 +251,7 @@ class AccelField {
       return AccelFieldEvent::kHeld;
     }
     AccelFieldEvent e = AccelFieldEvent::kNone;
-    if (candidate_) {
+    if (later) {
       candidate_ = false;
       e = AccelFieldEvent::kUnconfirmed;
     }
@@ -272,6 +275,8 @@ class AccelField {
   Scalar gate() const { return settings_.gate_chi2; }
   // A rest that disagreed is held, until a later one confirms or drops it (the sigma is widened).
   bool holding() const { return candidate_; }
+  // A change's step (raw units): what the bias's sigma widens by while a rest is held.
+  Scalar change_sigma_raw() const { return g_counts_ * std::sqrt(change2_); }
 
   // One slice of a pending solve (a row, a factorisation, or the sigmas); kOk when nothing is
   // pending. Returns kUpdated from the slice that published.

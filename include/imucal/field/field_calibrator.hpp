@@ -278,7 +278,7 @@ class FieldCalibrator {
     mag_sq_ = Scalar(0);
     mag_n_ = 0;
     mag_reading_var_ = Scalar(0);
-    mag_offered_us_ = mag_looked_us_ = 0;
+    mag_offered_us_ = mag_looked_us_ = mag_doubt_us_ = 0;
     mag_first_ = mag_due_ = 0;
     reset_dip();
     took_ = false;
@@ -620,7 +620,14 @@ class FieldCalibrator {
       if (sigma != nullptr) sigma->setZero();
       return false;
     }
-    return mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), out, sigma);
+    const bool published =
+        mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), out, sigma);
+    // A reading at rest disagreed and its rest is not judged yet (look_at_mag()).
+    if (sigma != nullptr && mag_doubt_us_ != 0) {
+      const Scalar c = mag_.change_sigma_raw();
+      for (int i = 0; i < 3; ++i) (*sigma)(i) = std::sqrt((*sigma)(i) * (*sigma)(i) + c * c);
+    }
+    return published;
   }
   // The published magnetometer model as a calibration (the corrector's and the record's): soft
   // iron in the prior's frame, hard iron, their sigmas, the field strength; false before its
@@ -788,6 +795,7 @@ class FieldCalibrator {
         dip_disagreement(p.mag, p.acc, p.t, Scalar(0), Scalar(-1), s, up, same_pose);
     const AccelFieldEvent e = mag_.add(p.mag, p.variance, std::numeric_limits<Scalar>::quiet_NaN(),
                                        p.end_us, p.group, other);
+    if (p.end_us >= mag_doubt_us_) mag_doubt_us_ = 0;       // judged what the look doubted
     if (e == AccelFieldEvent::kNone && std::isfinite(s)) {  // taken: the dip's mean and spread
       if (dip_n_ < Scalar(50)) dip_n_ += Scalar(1);         // ... over the last fifty or so
       const Scalar d = s - dip_mean_;
@@ -883,38 +891,48 @@ class FieldCalibrator {
     if ((mag_.full() || mag_.covers(m)) && mag_offered_us_ != 0 &&
         static_cast<Scalar>(since / 1000u) < Scalar(1000) * settings_.mag.confirm_seconds)
       return;
-    offer_mag(m, Scalar(0));
+    offer_mag(m);
   }
 
   // One reading a second, at rest or in motion, against the published model: its strength, and
-  // at rest its angle to gravity (from the detector's moving mean). One that disagrees is offered
-  // at once, and held (the published sigma widens by a change's step until a later reading or
-  // rest confirms or drops it), rather than when its direction or its rest's end next comes up.
+  // at rest its angle to gravity (from the detector's moving mean). In motion one that disagrees
+  // is offered at once, as readings in motion are (held: the model's sigma widens by a change's
+  // step until a later reading or rest confirms or drops it). At rest the rest's own mean is
+  // judged when its piece ends; until a piece that ended after it is judged (held, taken, or
+  // refused), a reading that disagrees widens the stated sigma by a change's step
+  // (mag_doubt_us_). A magnetisation change is covered from the next second either way, and a
+  // rest cannot confirm a reading of its own.
   void look_at_mag(const Vector3<Scalar>& m) {
-    if (!mag_.enabled() || !(mag_reading_var_ > Scalar(0)) || mag_.holding()) return;
+    if (!mag_.enabled() || !(mag_reading_var_ > Scalar(0))) return;
     if (mag_looked_us_ != 0 && elapsed_us_ - mag_looked_us_ < 1000000u) return;
     mag_looked_us_ = elapsed_us_ > 0 ? elapsed_us_ : 1u;
-    if (mag_.disagrees(m, mag_reading_var_)) {
-      offer_mag(m, Scalar(0));
+    if (mag_.holding()) {  // its sigma is widened already
+      mag_doubt_us_ = 0;
       return;
     }
-    if (!monitor_.resting()) return;
-    Scalar s = Scalar(0);
-    Vector3<Scalar> up;
-    bool same_pose = false;
-    const Scalar gate = mag_.gate();
-    const Scalar other = dip_disagreement(m, monitor_.accel_now(), temperature_,
-                                          mag_reading_var_ / (mag_g_counts_ * mag_g_counts_), gate,
-                                          s, up, same_pose);
-    if (other > gate) offer_mag(m, other);
+    if (!monitor_.resting()) {
+      if (mag_.disagrees(m, mag_reading_var_)) offer_mag(m);
+      return;
+    }
+    if (mag_doubt_us_ != 0) return;  // until a rest piece that covers it is judged
+    bool doubt = mag_.disagrees(m, mag_reading_var_);
+    if (!doubt) {
+      Scalar s = Scalar(0);
+      Vector3<Scalar> up;
+      bool same_pose = false;
+      const Scalar gate = mag_.gate();
+      doubt = dip_disagreement(m, monitor_.accel_now(), temperature_,
+                               mag_reading_var_ / (mag_g_counts_ * mag_g_counts_), gate, s, up,
+                               same_pose) > gate;
+    }
+    if (doubt) mag_doubt_us_ = mag_looked_us_;
   }
 
-  // A single reading to the magnetometer's model, with the noise the rests measured; other: its
-  // disagreement measured otherwise (the dip), as for a rest.
-  void offer_mag(const Vector3<Scalar>& m, Scalar other) {
+  // A single reading in motion to the magnetometer's model, with the noise the rests measured.
+  void offer_mag(const Vector3<Scalar>& m) {
     mag_offered_us_ = elapsed_us_ > 0 ? elapsed_us_ : 1u;
     const AccelFieldEvent e = mag_.add(
-        m, mag_reading_var_, std::numeric_limits<Scalar>::quiet_NaN(), elapsed_us_, group_, other);
+        m, mag_reading_var_, std::numeric_limits<Scalar>::quiet_NaN(), elapsed_us_, group_);
     model_took(e, mag_, FieldSensor::kMag, temperature_, counts_.mag_held, counts_.mag_implausible,
                counts_.mag_changes);
   }
@@ -1477,6 +1495,7 @@ class FieldCalibrator {
   bool took_ = false;                 // a piece was taken in this call
   std::uint64_t mag_offered_us_ = 0;  // when a single reading was last offered
   std::uint64_t mag_looked_us_ = 0;   // when one was last looked at (look_at_mag())
+  std::uint64_t mag_doubt_us_ = 0;    // when one at rest disagreed, until judged (0: none)
   Matrix3<Scalar> mag_frame_ =
       Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
   MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
