@@ -275,8 +275,6 @@ class AccelField {
   Scalar gate() const { return settings_.gate_chi2; }
   // A rest that disagreed is held, until a later one confirms or drops it (the sigma is widened).
   bool holding() const { return candidate_; }
-  // A change's step (raw units): what the bias's sigma widens by while a rest is held.
-  Scalar change_sigma_raw() const { return g_counts_ * std::sqrt(change2_); }
 
   // One slice of a pending solve (a row, a factorisation, or the sigmas); kOk when nothing is
   // pending. Returns kUpdated from the slice that published.
@@ -380,15 +378,17 @@ class AccelField {
 
   // The bias the device applies at temperature t (raw, added; NaN: at the reference), the model
   // clamped to the temperatures seen plus margin, and its sigma per axis (widened by change_sigma
-  // while a rest that disagrees is held). False before the first publication (then the prior's).
-  bool bias(Scalar t, Scalar margin, Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr) const {
+  // while a rest that disagrees is held, or when the caller doubts it: a reading it looked at
+  // disagreed). False before the first publication (then the prior's).
+  bool bias(Scalar t, Scalar margin, Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr,
+            bool doubted = false) const {
     const Scalar d = clamped_offset(t, margin);
     const Scalar d2 = d * d;
     out = g_counts_ *
           (published_.template segment<3>(kBiasX) + d * published_.template segment<3>(kSlopeX) +
            d2 * published_.template segment<3>(kCurvatureX));
     if (sigma != nullptr) {
-      const Vector3<Scalar> v = bias_variance(t);
+      const Vector3<Scalar> v = bias_variance(t, doubted);
       for (int i = 0; i < 3; ++i) (*sigma)(i) = g_counts_ * std::sqrt(v(i));
     }
     return has_published_;
@@ -443,7 +443,7 @@ class AccelField {
   };
 
   // The published bias's variance per axis at t itself (it grows beyond the range; g^2).
-  Vector3<Scalar> bias_variance(Scalar t) const {
+  Vector3<Scalar> bias_variance(Scalar t, bool doubted = false) const {
     const Scalar u = offset(t);
     const Scalar h[3] = {Scalar(1), u, u * u};
     Vector3<Scalar> out;
@@ -454,7 +454,7 @@ class AccelField {
         for (int b = 0; b < 3; ++b) v += h[a] * h[b] * published_cov_[index(k[a], k[b])];
       // While a rest that disagrees is held (a change, until confirmed or dropped), the sigma
       // covers a change's step.
-      if (candidate_) v += change2_;
+      if (candidate_ || doubted) v += change2_;
       out(i) = v > Scalar(0) ? v : Scalar(0);
     }
     return out;

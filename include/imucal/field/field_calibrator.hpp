@@ -620,14 +620,9 @@ class FieldCalibrator {
       if (sigma != nullptr) sigma->setZero();
       return false;
     }
-    const bool published =
-        mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), out, sigma);
-    // A reading at rest disagreed and its rest is not judged yet (look_at_mag()).
-    if (sigma != nullptr && mag_doubt_us_ != 0) {
-      const Scalar c = mag_.change_sigma_raw();
-      for (int i = 0; i < 3; ++i) (*sigma)(i) = std::sqrt((*sigma)(i) * (*sigma)(i) + c * c);
-    }
-    return published;
+    // Doubted: a reading at rest disagreed and its rest is not judged yet (look_at_mag()).
+    return mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), out, sigma,
+                     mag_doubt_us_ != 0);
   }
   // The published magnetometer model as a calibration (the corrector's and the record's): soft
   // iron in the prior's frame, hard iron, their sigmas, the field strength; false before its
@@ -823,9 +818,11 @@ class FieldCalibrator {
   Scalar dip_disagreement(const Vector3<Scalar>& mag, const Vector3<Scalar>& acc, Scalar t,
                           Scalar extra, Scalar decide_at, Scalar& s, Vector3<Scalar>& up,
                           bool& same_pose) const {
+    // The bias's sigma only when the exact answer is asked for, or the bound does not tell.
+    const bool exact = decide_at < Scalar(0);
     Vector3<Scalar> gravity = acc, ab, as;
     if (accel_.enabled()) {
-      accel_.bias(t, settings_.temperature_margin_c, ab);
+      accel_.bias(t, settings_.temperature_margin_c, ab, exact ? &as : nullptr);
       gravity += ab;
     }
     s = dip_sine(mag, gravity);
@@ -838,11 +835,10 @@ class FieldCalibrator {
       other = d * d / (hard + extra + Scalar(1e-4));
     }
     // Across poses, without gravity's variance first: the chi-square is at most that.
-    if (decide_at >= Scalar(0) && (other > decide_at || !(dip_chi2(s, extra) > decide_at)))
-      return other;
+    if (!exact && (other > decide_at || !(dip_chi2(s, extra) > decide_at))) return other;
     Scalar gravity_var = Scalar(0.0025);  // 50 mg, without the accelerometer's model
     if (accel_.enabled()) {
-      accel_.bias(t, settings_.temperature_margin_c, ab, &as);
+      if (!exact) accel_.bias(t, settings_.temperature_margin_c, ab, &as);
       gravity_var = as.squaredNorm() / acc.squaredNorm();
     }
     const Scalar across = dip_chi2(s, gravity_var + extra);
