@@ -17,7 +17,8 @@
 //     (bias_filter.hpp: bias, slope and curvature per axis, a random walk between rests), a
 //     chi-square(3) gate. A piece within the gate is taken into the filter. One outside is held
 //     as a candidate (kHeld; a turn about the vertical looks like a bias inside one rest) and the
-//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later, a
+//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later (or
+//     a steady one whose step lies across gravity, which no turn about the vertical gives), a
 //     steady one after motion in an orientation 30 degrees or more away, or three steady rests
 //     across motion over change_seconds, that agree with it confirm a change (a knock;
 //     kChangeDetected: the filter's bias variance grows by change_sigma^2); a piece that agrees
@@ -1103,7 +1104,8 @@ class FieldCalibrator {
           filter_.inflate(change_var());
           take(candidate_piece_, false);  // counted as held already
           take(p);
-          publish(FieldReason::kChange, p.t, chi2);
+          // Nothing published yet: the first publication still waits for its own rests.
+          if (has_published_) publish(FieldReason::kChange, p.t, chi2);
           return;
         }
         // Held together with the candidate: their weighted mean, at the later temperature.
@@ -1149,6 +1151,7 @@ class FieldCalibrator {
   // A steady piece after motion in another orientation (gravity at least 30 degrees away) that
   // agrees confirms it too: a turn about the vertical reads as a rate along gravity, so two turns
   // seen in orientations apart cannot agree, while a bias is the same in every orientation.
+  // So does a steady piece confirm_seconds later whose step lies across gravity (across()).
   bool confirms(const Piece& p) const {
     if (!p.steady) return false;
     const Scalar held = static_cast<Scalar>(p.mid_us - candidate_first_us_) * Scalar(1e-6);
@@ -1156,8 +1159,30 @@ class FieldCalibrator {
     const std::uint32_t groups = candidate_groups_ + (moved ? 1u : 0u);
     const Vector3<Scalar>& u = candidate_piece_.acc;
     const bool turned_over = moved && u.dot(p.acc) < Scalar(0.866) * u.norm() * p.acc.norm();
-    return (p.verified && held >= settings_.confirm_seconds) || turned_over ||
+    const bool bias_step = p.verified || (has_published_ && across(p));
+    return (bias_step && held >= settings_.confirm_seconds) || turned_over ||
            (groups >= 3u && held >= settings_.change_seconds);
+  }
+
+  // Whether a steady piece's disagreement with the filter is a bias and not a turn, by the
+  // accelerometer alone: a rate across gravity turns gravity at that rate, and a steady piece's
+  // gravity turned at most turn_rate_max since the piece before. The disagreement's part across
+  // gravity must be significant (chi-square above gate_chi2), beyond three times turn_rate_max by
+  // three sigmas, and the disagreement at least 30 degrees from gravity: a steady bend turns about
+  // the vertical, and its centripetal acceleration tilts the measured gravity by far less.
+  bool across(const Piece& p) const {
+    const Scalar g2 = p.acc.squaredNorm();
+    if (!(g2 > Scalar(0))) return false;
+    const Scalar d = filter_.offset(p.t);
+    const Vector3<Scalar> nu = p.z - filter_.value(d);
+    const Scalar along = nu.dot(p.acc);
+    const Scalar nu2 = nu.squaredNorm();
+    const Scalar across2 = nu2 - along * along / g2;
+    const Scalar var = filter_.variance(d) + p.r;  // per axis
+    if (!(across2 > settings_.gate_chi2 * var) || !(along * along <= Scalar(0.75) * nu2 * g2))
+      return false;
+    const Scalar excess = std::sqrt(across2) - Scalar(3) * std::sqrt(var);
+    return excess > Scalar(3) * settings_.turn_rate_max * settings_.gyro_per_rad_s;
   }
 
   Scalar change_var() const {
