@@ -17,12 +17,13 @@
 //     (bias_filter.hpp: bias, slope and curvature per axis, a random walk between rests), a
 //     chi-square(3) gate. A piece within the gate is taken into the filter. One outside is held
 //     as a candidate (kHeld; a turn about the vertical looks like a bias inside one rest) and the
-//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later (or
-//     a steady one whose step lies across gravity, which no turn about the vertical gives), a
-//     steady one after motion in an orientation 30 degrees or more away, or three steady rests
-//     across motion over change_seconds, that agree with it confirm a change (a knock;
-//     kChangeDetected: the filter's bias variance grows by change_sigma^2); a piece that agrees
-//     with the filter instead drops it (kRejected, kUnconfirmed).
+//     stated sigma widens at once by the disagreement. A verified piece confirm_seconds later (or,
+//     once a bias is published, a steady one whose step lies across gravity, which no turn about
+//     the vertical gives), a steady one after motion in an orientation 30 degrees or more away, or
+//     three steady rests across motion over change_seconds, that agree with it confirm a change (a
+//     knock; kChangeDetected: the filter's bias variance grows by change_sigma^2; published at
+//     once, or before the first publication only taken); a piece that agrees with the filter
+//     instead drops it (kRejected, kUnconfirmed).
 // What the device applies is the *published* bias model, not the filter: the filter's model
 // replaces it (kUpdated) only when the two differ significantly (publish_chi2 on the difference
 // with both variances) and the filter's variance is the smaller, or when the filter's variance is
