@@ -1153,13 +1153,15 @@ class FieldCalibrator {
   // agrees confirms it too: a turn about the vertical reads as a rate along gravity, so two turns
   // seen in orientations apart cannot agree, while a bias is the same in every orientation.
   // So does a steady piece confirm_seconds later whose step lies across gravity (across()).
+  // Both take 30 degrees as apart: far more than a bend's centripetal tilt of gravity.
+  static constexpr Scalar kCos30 = Scalar(0.866);
   bool confirms(const Piece& p) const {
     if (!p.steady) return false;
     const Scalar held = static_cast<Scalar>(p.mid_us - candidate_first_us_) * Scalar(1e-6);
     const bool moved = p.group != candidate_piece_.group;
     const std::uint32_t groups = candidate_groups_ + (moved ? 1u : 0u);
     const Vector3<Scalar>& u = candidate_piece_.acc;
-    const bool turned_over = moved && u.dot(p.acc) < Scalar(0.866) * u.norm() * p.acc.norm();
+    const bool turned_over = moved && u.dot(p.acc) < kCos30 * u.norm() * p.acc.norm();
     const bool bias_step = p.verified || (has_published_ && across(p));
     return (bias_step && held >= settings_.confirm_seconds) || turned_over ||
            (groups >= 3u && held >= settings_.change_seconds);
@@ -1180,7 +1182,7 @@ class FieldCalibrator {
     const Scalar nu2 = nu.squaredNorm();
     const Scalar across2 = nu2 - along * along / g2;
     const Scalar var = filter_.variance(d) + p.r;  // per axis
-    if (!(across2 > settings_.gate_chi2 * var) || !(along * along <= Scalar(0.75) * nu2 * g2))
+    if (!(across2 > settings_.gate_chi2 * var) || !(along * along <= kCos30 * kCos30 * nu2 * g2))
       return false;
     const Scalar excess = std::sqrt(across2) - Scalar(3) * std::sqrt(var);
     return excess > Scalar(3) * settings_.turn_rate_max * settings_.gyro_per_rad_s;
