@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,6 +47,12 @@ class Estimator {
   virtual void feed(const sim::LifeSample& s, const sim::LifeTruth* truth) = 0;
   // Called once a simulated second, after the sample that starts the second.
   virtual Estimate estimate() = 0;
+  // From now on, write each of its decisions as it makes them to out, one line each starting
+  // with "trace <name> " (field_bench --trace); one that cannot tell its decisions writes none.
+  virtual void trace(std::FILE* out, const char* name) {
+    (void)out;
+    (void)name;
+  }
 };
 
 // Makes an estimator for a device; sheet holds what the device knows (nominal scales, rates),

@@ -35,6 +35,7 @@ struct Options {
   sim::LifeOptions life;
   std::string markdown, json;
   double away_margin_c = 3.0;
+  bool trace = false;  // each update and each decision an estimator tells, to stdout
 };
 
 // What happened in the life, for the table's heading.
@@ -114,6 +115,10 @@ LifeResult run_life(const std::string& name, const Options& o) {
     c.name = e;
     c.estimator = find_estimator(e)->make(sheet);
     for (Param p : kParams) c.tracks.emplace_back(p, sheet.gravity, FalseUpdateRule{});
+    if (o.trace) {
+      c.estimator->trace(stdout, e.c_str());
+      for (ParamTrack& t : c.tracks) t.trace(stdout, e);
+    }
     r.columns.push_back(std::move(c));
   }
   RestTemperatures rests;
@@ -351,7 +356,7 @@ int usage(const char* why) {
   std::fprintf(stderr,
                "usage: field_bench [--life NAME[,NAME...]|all] [--hours H | --days D] [--seed N]\n"
                "                   [--estimators NAME[,NAME...]] [--rate HZ] [--no-mag]\n"
-               "                   [--no-knock] [--no-hard-iron] [--no-magnet]\n"
+               "                   [--no-knock] [--no-hard-iron] [--no-magnet] [--trace]\n"
                "                   [--markdown FILE] [--json FILE] [--list]\n");
   return 2;
 }
@@ -379,6 +384,8 @@ int main_(int argc, char** argv) {
       o.life.hard_iron_step = false;
     } else if (a == "--no-magnet") {
       o.life.magnet_pass = false;
+    } else if (a == "--trace") {
+      o.trace = true;
     } else if (a == "--life" || a == "--hours" || a == "--days" || a == "--seed" ||
                a == "--estimators" || a == "--rate" || a == "--markdown" || a == "--json") {
       const char* v = value();

@@ -10,6 +10,7 @@
 // for the magnetometer).
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 
 #include "estimator.hpp"
@@ -37,6 +38,19 @@ class ImucalEstimator final : public Estimator {
     }
     field_.add_raw(f, s.temperature_new ? s.imu.temperature : std::nanf(""));
     if (s.mag_new) field_.add_mag(s.mag);
+    FieldEvent<float> ev;
+    while (trace_ != nullptr && field_.take_event(ev))
+      std::fprintf(trace_, "trace %s %s %s %s %u s: %.2f degC, chi2 %.3g, value %.4g %.4g %.4g\n",
+                   name_, field_sensor_name(ev.sensor), field_event_name(ev.kind),
+                   field_reason_name(ev.reason), ev.time_s, static_cast<double>(ev.temperature_c),
+                   static_cast<double>(ev.chi2), static_cast<double>(ev.value(0)),
+                   static_cast<double>(ev.value(1)), static_cast<double>(ev.value(2)));
+  }
+
+  // Its events (field_calibrator.hpp's FieldEvent: the value in raw units, added).
+  void trace(std::FILE* out, const char* name) override {
+    trace_ = out;
+    name_ = name;
   }
 
   Estimate estimate() override {
@@ -71,6 +85,8 @@ class ImucalEstimator final : public Estimator {
 
   double scale_, accel_scale_, mag_scale_;
   FieldCalibrator<float> field_;
+  std::FILE* trace_ = nullptr;
+  const char* name_ = "";
 };
 
 }  // namespace

@@ -38,7 +38,11 @@ const char* display_unit_name(Param p) {
 }
 
 ParamTrack::ParamTrack(Param p, double gravity, const FalseUpdateRule& rule)
-    : unit_(display_unit(p, gravity)),
+    : param_(p == Param::kGyro    ? "gyro"
+             : p == Param::kAccel ? "accel"
+                                  : "mag"),
+      unit_name_(display_unit_name(p)),
+      unit_(display_unit(p, gravity)),
       threshold_(p == Param::kGyro    ? rule.gyro_mdps
                  : p == Param::kAccel ? rule.accel_mg
                                       : rule.mag_ut),
@@ -70,7 +74,21 @@ void ParamTrack::second(const Estimate3& e, const Eigen::Vector3d& truth, double
     const bool wrong = sigma ? (d.array().abs() > sigmas_ * e.sigma.array()).any()
                              : static_cast<double>(err) > threshold_;
     false_updates_ += wrong;
+    if (trace_ != nullptr) {
+      const Eigen::Vector3d shown = d * unit_;
+      std::fprintf(trace_, "trace %s %s update %.0f s: error %.3g %.3g %.3g", who_.c_str(), param_,
+                   t_s, shown(0), shown(1), shown(2));
+      if (sigma)
+        std::fprintf(trace_, ", sigma %.3g %.3g %.3g", e.sigma(0) * unit_, e.sigma(1) * unit_,
+                     e.sigma(2) * unit_);
+      std::fprintf(trace_, " %s%s\n", unit_name_, wrong ? " FALSE" : "");
+    }
   }
+}
+
+void ParamTrack::trace(std::FILE* out, const std::string& who) {
+  trace_ = out;
+  who_ = who;
 }
 
 ParamSummary ParamTrack::summary() const {

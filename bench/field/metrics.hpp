@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -57,9 +58,16 @@ class ParamTrack {
   // not truly still; away: the temperature is away from every true rest's so far.
   void second(const Estimate3& e, const Eigen::Vector3d& truth, double t_s, bool motion, bool away);
   ParamSummary summary() const;
+  // From now on, write each update (its second, its error per axis and sigma, whether false) to
+  // out, one line each: "trace <who> <param> update ...".
+  void trace(std::FILE* out, const std::string& who);
 
  private:
+  const char* param_;
+  const char* unit_name_;
   double unit_;
+  std::FILE* trace_ = nullptr;
+  std::string who_;
   double threshold_;  // display units
   double sigmas_;
   std::vector<float> err_, err_motion_, err_away_;
