@@ -49,10 +49,7 @@ class Estimator {
   virtual Estimate estimate() = 0;
   // From now on, write each of its decisions as it makes them to out, one line each starting
   // with "trace <name> " (field_bench --trace); one that cannot tell its decisions writes none.
-  virtual void trace(std::FILE* out, const char* name) {
-    (void)out;
-    (void)name;
-  }
+  virtual void trace(std::FILE* /*out*/, const char* /*name*/) {}
 };
 
 // Makes an estimator for a device; sheet holds what the device knows (nominal scales, rates),

@@ -38,10 +38,7 @@ const char* display_unit_name(Param p) {
 }
 
 ParamTrack::ParamTrack(Param p, double gravity, const FalseUpdateRule& rule)
-    : param_(p == Param::kGyro    ? "gyro"
-             : p == Param::kAccel ? "accel"
-                                  : "mag"),
-      unit_name_(display_unit_name(p)),
+    : param_(p),
       unit_(display_unit(p, gravity)),
       threshold_(p == Param::kGyro    ? rule.gyro_mdps
                  : p == Param::kAccel ? rule.accel_mg
@@ -76,12 +73,12 @@ void ParamTrack::second(const Estimate3& e, const Eigen::Vector3d& truth, double
     false_updates_ += wrong;
     if (trace_ != nullptr) {
       const Eigen::Vector3d shown = d * unit_;
-      std::fprintf(trace_, "trace %s %s update %.0f s: error %.3g %.3g %.3g", who_.c_str(), param_,
-                   t_s, shown(0), shown(1), shown(2));
+      std::fprintf(trace_, "trace %s %s update %.0f s: error %.3g %.3g %.3g", who_.c_str(),
+                   param_name(param_), t_s, shown(0), shown(1), shown(2));
       if (sigma)
         std::fprintf(trace_, ", sigma %.3g %.3g %.3g", e.sigma(0) * unit_, e.sigma(1) * unit_,
                      e.sigma(2) * unit_);
-      std::fprintf(trace_, " %s%s\n", unit_name_, wrong ? " FALSE" : "");
+      std::fprintf(trace_, " %s%s\n", display_unit_name(param_), wrong ? " FALSE" : "");
     }
   }
 }

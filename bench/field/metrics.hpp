@@ -63,8 +63,7 @@ class ParamTrack {
   void trace(std::FILE* out, const std::string& who);
 
  private:
-  const char* param_;
-  const char* unit_name_;
+  Param param_;
   double unit_;
   std::FILE* trace_ = nullptr;
   std::string who_;
