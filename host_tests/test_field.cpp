@@ -736,12 +736,18 @@ TEST(FieldLife, HandheldFromAStoredMagnetometerCalibration) {
 }
 
 // A platform turning slowly about the vertical most of the time (a turn that looks like a rest
-// to the detector): with the magnetometer the turns are refused, and no update is false.
+// to the detector): with the magnetometer the turns are refused, and no update is false. Each
+// turn slows to a stop over 2 s; the first piece of the rest after it holds the last of it,
+// about 20 mdeg/s about the vertical, which neither the field nor the chi-square(3) of the
+// pieces shows. Seed 5 has such pieces: taken at full weight after a long turn, each would be
+// published 6 to 7 sigma off.
 TEST(FieldLife, TurntableTurnsAreNotTakenForABias) {
-  const LifeRun r = run_life("turntable", 12.0, true);
-  EXPECT_EQ(r.false_updates, 0);
-  EXPECT_GT(r.updates, 0u);
-  EXPECT_LT(r.median(), 15.0);  // the turns are 200 to 2000 mdeg/s
+  for (std::uint64_t seed : {1u, 5u}) {
+    const LifeRun r = run_life("turntable", 12.0, true, seed);
+    EXPECT_EQ(r.false_updates, 0) << "seed " << seed;
+    EXPECT_GT(r.updates, 0u) << "seed " << seed;
+    EXPECT_LT(r.median(), 15.0) << "seed " << seed;  // the turns are 200 to 2000 mdeg/s
+  }
 }
 
 // A vehicle: steady bends, an idling engine, driving. No false update, with or without the

@@ -12,7 +12,9 @@
 //     their noise allows, are a slow rotation taken for a rest (a car's bend, a turntable) or a
 //     magnet passing: both are refused (kRejected, kTurning). A rate that changed between them
 //     (a turn's tail) refuses the earlier one. Pieces that pass are steady; with a magnetometer,
-//     verified.
+//     verified. The first piece of a rest after motion whose rate differs from the next one's
+//     along gravity (a turn about the vertical slowing to a stop) keeps a weight by that
+//     difference (widen_tail()).
 //   - consistency: the piece's mean gyro against the bias filter's prediction at its temperature
 //     (bias_filter.hpp: bias, slope and curvature per axis, a random walk between rests), a
 //     chi-square(3) gate. A piece within the gate is taken into the filter. One outside is held
@@ -672,6 +674,7 @@ class FieldCalibrator {
     bool has_mag = false;
     bool steady = false;        // the piece before in its rest agreed: same rate, same gravity
     bool verified = false;      // ... and the same field (no turn about the vertical either)
+    bool lead = false;          // the first piece of a rest after motion
     Scalar turned = Scalar(0);  // above 1: it turned (the rate over its bound) from a neighbour
     Scalar r = Scalar(0);       // each axis's variance of z
     Scalar t = Scalar(0);       // temperature (NaN: none)
@@ -973,6 +976,7 @@ class FieldCalibrator {
     p.mid_us = elapsed_at(r.begin_us / 2u + r.end_us / 2u + (r.begin_us & r.end_us & 1u));
     if (r.end_us < r.begin_us) p.mid_us = p.end_us;  // the timer wrapped inside the rest
     p.group = group_;
+    p.lead = r.after_motion;
     p.begin_raw = r.begin_us;
     p.end_raw = r.end_us;
     // A rest that disagrees with the published bias widens its stated sigma at once, until the
@@ -1017,6 +1021,7 @@ class FieldCalibrator {
             p.verified = false;
           } else {
             p.steady = true;
+            if (pending_piece_.lead) widen_tail(pending_piece_, p);
           }
         }
         if (ratio > Scalar(1)) {
@@ -1028,6 +1033,22 @@ class FieldCalibrator {
     }
     pending_piece_ = p;
     pending_ = true;
+  }
+
+  // The first piece of a rest may hold the slow end of the turn before it, below what the
+  // detector sees: a rate about the axis the device turned about. Where the temperature model
+  // does not explain its difference from the next piece, and the difference along gravity is
+  // significant on its own (chi-square(1) above kTailChi2, 1 %), the piece keeps its place but
+  // its variance grows by that difference squared: the filter weighs it as what it is, and it
+  // cannot make a better estimate to publish on its own. A turn about the vertical shows there
+  // and in no other test without a magnetometer.
+  static constexpr Scalar kTailChi2 = Scalar(6.63);
+  void widen_tail(Piece& lead, const Piece& next) const {
+    const Scalar g2 = lead.acc.squaredNorm();
+    if (!(g2 > Scalar(0))) return;
+    const Scalar along = difference(lead, next).dot(lead.acc);
+    const Scalar along2 = along * along / g2;
+    if (along2 > kTailChi2 * (lead.r + next.r)) lead.r += along2;
   }
 
   // The turn rate of a direction between two pieces (rad/s): the angle from u to v over the time
@@ -1138,11 +1159,18 @@ class FieldCalibrator {
   // The chi-square(3) of two measurements' difference once the model's change between their
   // temperatures is removed.
   Scalar agreement(const Piece& a, const Piece& b) const {
-    const Vector3<Scalar> dh =
-        BiasFilter<Scalar>::h(filter_.offset(b.t)) - BiasFilter<Scalar>::h(filter_.offset(a.t));
+    const Vector3<Scalar> dh = model_step(a, b);
     const Scalar v = a.r + b.r + dh.dot(filter_.p * dh);
-    const Vector3<Scalar> model_change = dh(1) * filter_.s + dh(2) * filter_.q;
-    return (b.z - a.z - model_change).squaredNorm() / v;
+    return difference(a, b).squaredNorm() / v;
+  }
+  // The model's regressors' change from a's temperature to b's.
+  Vector3<Scalar> model_step(const Piece& a, const Piece& b) const {
+    return BiasFilter<Scalar>::h(filter_.offset(b.t)) - BiasFilter<Scalar>::h(filter_.offset(a.t));
+  }
+  // b's bias less a's, less the model's change between their temperatures.
+  Vector3<Scalar> difference(const Piece& a, const Piece& b) const {
+    const Vector3<Scalar> dh = model_step(a, b);
+    return b.z - a.z - (dh(1) * filter_.s + dh(2) * filter_.q);
   }
 
   // A piece that agrees with the held candidate confirms a change when it is verified (the field
