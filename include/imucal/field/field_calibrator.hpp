@@ -997,7 +997,14 @@ class FieldCalibrator {
       const Scalar var = (mag_sq_ - n * mean.squaredNorm()) / (n - Scalar(1));
       p.mag_var = (var > Scalar(0) ? var : Scalar(0)) / n;
       p.has_mag = true;
-      if (var > Scalar(0)) mag_reading_var_ = var / Scalar(3);
+      // One reading's noise: a piece spread more than twice the noise known holds a change (a
+      // magnetisation step, a magnet passing), which must not make the next readings' looks
+      // blind to it; so the noise grows at most twofold a piece.
+      if (var > Scalar(0)) {
+        const Scalar v = var / Scalar(3);
+        const bool jump = mag_reading_var_ > Scalar(0) && v > Scalar(2) * mag_reading_var_;
+        mag_reading_var_ = jump ? Scalar(2) * mag_reading_var_ : v;
+      }
     }
     mag_sum_.setZero();
     mag_sq_ = Scalar(0);
