@@ -77,6 +77,10 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
     this->min_rest_seconds = Scalar(1);
     this->max_rest_seconds = Scalar(5);
     this->follow_rests = false;
+    // The detector's step and the trimming's granularity: a quarter second (the float work of a
+    // sub-block, paid once per 25 samples at 100 Hz; a rest's edges still trimmed to 0.25 s).
+    this->sub_block_seconds = Scalar(0.25);
+    this->block_seconds = Scalar(0.25);
   }
   Scalar gyro_per_rad_s = std::numeric_limits<Scalar>::quiet_NaN();  // raw units per rad/s
   // The prior without a stored calibration: bias 0 with this sigma, slope 0 with its sigma.
@@ -247,11 +251,12 @@ template <typename Scalar, int Events = 8>
 class FieldCalibrator {
  public:
   using Settings = FieldSettings<Scalar>;
-  // The rest monitor: two finished rests queued, and room for kMoveSegments gyro segments of a
-  // move not walked yet (taken one a call as they come; if they pile up, they are coarsened,
-  // solve/move_store.hpp, and the move is not used).
+  // The rest monitor: two finished rests queued, three blocks of 0.25 s waiting to be confirmed
+  // still (trim_seconds and one block), room for kMoveSegments gyro segments of a move not walked
+  // yet (taken one a call as they come; if they pile up, they are coarsened,
+  // solve/move_store.hpp, and the move is not used), sub-blocks of up to 32 samples.
   static constexpr int kMoveSegments = 4;
-  using Monitor = RestMonitor<Scalar, 2, 8, kMoveSegments>;
+  using Monitor = RestMonitor<Scalar, 2, 3, kMoveSegments, 32>;
 
   FieldCalibrator() = default;
 

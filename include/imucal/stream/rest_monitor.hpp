@@ -84,7 +84,11 @@ struct RestMonitorSettings : StreamSettings<Scalar>, SegmenterSettings<Scalar> {
   Scalar move_max_error = std::numeric_limits<Scalar>::infinity();
 };
 
-template <typename Scalar, int Queue = 4, int DelayBlocks = 8, int MoveSegments = 0>
+// Queue rests wait to be taken; DelayBlocks blocks wait to be confirmed still (the delay line:
+// at least trim_seconds plus one block); a move under way keeps at most MoveSegments segments; a
+// sub-block holds at most SubBlockSamples samples (the segmenter's, segmenter.hpp).
+template <typename Scalar, int Queue = 4, int DelayBlocks = 8, int MoveSegments = 0,
+          int SubBlockSamples = 16>
 class RestMonitor {
  public:
   static_assert(Queue >= 1, "room for at least one finished rest");
@@ -295,7 +299,8 @@ class RestMonitor {
            all_finite(s.gyro_rest_reading) && s.stillness.valid() && positive(s.trim_seconds) &&
            std::isfinite(s.max_rest_seconds) && s.max_rest_seconds <= Scalar(3600) &&
            s.max_rest_seconds >= s.trim_seconds && !std::isnan(s.accel_shift_max) &&
-           s.glitch_sigma > Scalar(1) && Segmenter<Scalar, DelayBlocks>::valid(s) &&
+           s.glitch_sigma > Scalar(1) &&
+           Segmenter<Scalar, DelayBlocks, SubBlockSamples>::valid(s) &&
            s.StreamSettings<Scalar>::valid();
   }
 
@@ -363,7 +368,7 @@ class RestMonitor {
   bool valid_ = false, started_ = false;
   bool after_motion_ = true;  // since the last rest ended: motion, a cut or the start
   StreamChecks<Scalar> checks_{};
-  Segmenter<Scalar, DelayBlocks> segmenter_{};
+  Segmenter<Scalar, DelayBlocks, SubBlockSamples> segmenter_{};
   // Blocks close by duration and stillness only: the monitor keeps no gyro segments.
   SegmentBounds<Scalar> bounds_{
       std::numeric_limits<Scalar>::infinity(), std::numeric_limits<Scalar>::infinity(),
