@@ -1058,7 +1058,7 @@ class FieldCalibrator {
   void widen_tail(Piece& lead, const Piece& next) const {
     const Scalar g2 = lead.acc.squaredNorm();
     if (!(g2 > Scalar(0))) return;
-    const Scalar along = difference(lead, next).dot(lead.acc);
+    const Scalar along = difference(lead, next, model_step(lead, next)).dot(lead.acc);
     const Scalar along2 = along * along / g2;
     if (along2 > kTailChi2 * (lead.r + next.r)) lead.r += along2;
   }
@@ -1173,15 +1173,14 @@ class FieldCalibrator {
   Scalar agreement(const Piece& a, const Piece& b) const {
     const Vector3<Scalar> dh = model_step(a, b);
     const Scalar v = a.r + b.r + dh.dot(filter_.p * dh);
-    return difference(a, b).squaredNorm() / v;
+    return difference(a, b, dh).squaredNorm() / v;
   }
   // The model's regressors' change from a's temperature to b's.
   Vector3<Scalar> model_step(const Piece& a, const Piece& b) const {
     return BiasFilter<Scalar>::h(filter_.offset(b.t)) - BiasFilter<Scalar>::h(filter_.offset(a.t));
   }
-  // b's bias less a's, less the model's change between their temperatures.
-  Vector3<Scalar> difference(const Piece& a, const Piece& b) const {
-    const Vector3<Scalar> dh = model_step(a, b);
+  // b's bias less a's, less the model's change dh (model_step()) between their temperatures.
+  Vector3<Scalar> difference(const Piece& a, const Piece& b, const Vector3<Scalar>& dh) const {
     return b.z - a.z - (dh(1) * filter_.s + dh(2) * filter_.q);
   }
 
