@@ -597,9 +597,10 @@ LifeRun run_life(const char* name, double hours, bool mag, std::uint64_t seed = 
   out.updates = f.counts().updates;
   out.changes = f.counts().changes;
   out.mag_changes = f.counts().mag_changes;
-  // The gyro's part, the rest monitor, the accelerometer's and the magnetometer's models
-  // (docs/field.md, RAM).
-  EXPECT_LT(sizeof(f), 12288u);  // 12 KiB
+  // The gyro's part, the rest monitor, the accelerometer's and the magnetometer's models: what
+  // docs/field.md and the README state, 11,680 B on the Arm cores, is 11,712 B on x86-64 (its
+  // layout differs). A part that grows fails here until the figures are measured again.
+  EXPECT_LE(sizeof(f), 11712u);
   return out;
 }
 
