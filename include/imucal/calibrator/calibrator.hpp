@@ -133,18 +133,14 @@ class Calibrator {
                       const FifoTiming& timing,
                       Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN(),
                       Status* statuses = nullptr) {
-    FifoResult r;
-    const bool ok = data != nullptr && layout.valid();
-    for (std::uint32_t k = 0; k < count; ++k) {
-      const Status s = ok ? add_raw(fifo_frame(data, k, layout, timing),
-                                    k == 0 ? temperature : std::numeric_limits<Scalar>::quiet_NaN())
-                          : checks_.refuse(Status::kInvalidArgument);
-      count_fifo_status(
-          r, s,
-          sample_taken(s) || s == Status::kInitialRestDisturbed || s == Status::kCapacityExceeded);
-      if (statuses != nullptr) statuses[k] = s;
-    }
-    return r;
+    return feed_fifo(
+        data, count, layout, timing, temperature, statuses,
+        [this](const RawFrame& f, Scalar t) { return add_raw(f, t); },
+        [](Status s) {
+          return sample_taken(s) || s == Status::kInitialRestDisturbed ||
+                 s == Status::kCapacityExceeded;
+        },
+        [this] { return checks_.refuse(Status::kInvalidArgument); });
   }
 
   Progress progress() const {

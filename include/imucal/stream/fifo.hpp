@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 #include "imucal/status.hpp"
 #include "imucal/types.hpp"
@@ -80,6 +81,27 @@ inline void count_fifo_status(FifoResult& r, Status s, bool taken) {
     if (r.first_refusal == Status::kOk) r.first_refusal = s;
   }
   if (s != Status::kOk && r.first_status == Status::kOk) r.first_status = s;
+}
+
+// A batch fed frame by frame: add(frame, temperature) gives each frame its status (the batch's
+// temperature goes with the first frame, none with the others), taken(status) says whether the
+// frame was taken, and refuse() refuses each frame of a batch whose layout is invalid or whose
+// buffer is null. Each status is counted in the result and written to statuses[k] if given
+// (count entries). What every calibrator's add_fifo() runs.
+template <typename Scalar, class Add, class Taken, class Refuse>
+FifoResult feed_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
+                     const FifoTiming& timing, Scalar temperature, Status* statuses, Add&& add,
+                     Taken&& taken, Refuse&& refuse) {
+  FifoResult r;
+  const bool ok = data != nullptr && layout.valid();
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const Status s = ok ? add(fifo_frame(data, k, layout, timing),
+                              k == 0 ? temperature : std::numeric_limits<Scalar>::quiet_NaN())
+                        : refuse();
+    count_fifo_status(r, s, taken(s));
+    if (statuses != nullptr) statuses[k] = s;
+  }
+  return r;
 }
 
 }  // namespace imucal
