@@ -468,6 +468,115 @@ bool feed_next(sim::LifeSimulator& life, FieldCalibrator<float>& f, sim::LifeSam
   return true;
 }
 
+// A FIFO batch is its frames, one by one: a hand-held life fed in batches of 25 frames (the
+// sensor's own layout: 14-byte frames, big-endian, the axes in another order, per-frame
+// timestamps, one repeated) decides exactly what the same frames fed to add_raw() decide, with
+// the batch's temperature going with its first frame. A batch that cannot be read refuses each
+// frame and changes nothing else.
+TEST(FieldCalibrator, AFifoBatchIsItsFrames) {
+  sim::LifePlan plan;
+  sim::LifeOptions o;
+  o.magnetometer = false;
+  ASSERT_TRUE(sim::make_life("handheld", 2, 2.0, o, plan));
+  sim::LifeSimulator life(plan);
+  static FieldCalibrator<float> one, batch;
+  ASSERT_EQ(one.start(settings_for(life.sheet())), Status::kOk);
+  ASSERT_EQ(batch.start(settings_for(life.sheet())), Status::kOk);
+  FifoLayout layout;
+  layout.stride = 14;
+  layout.acc_offset = 8;  // the gyro first, as many IMUs store it
+  layout.gyro_offset = 2;
+  layout.axis_order[0] = 1;  // body x is the frame's second reading, y the third, z the first
+  layout.axis_order[1] = 2;
+  layout.axis_order[2] = 0;
+  layout.big_endian = true;
+  constexpr std::uint32_t kBatch = 25;
+  std::uint8_t bytes[kBatch * 14] = {};
+  std::uint32_t stamps[kBatch] = {};
+  RawFrame frames[kBatch];
+  Status want[kBatch], got[kBatch];
+  const auto put16 = [](std::uint8_t* at, std::int16_t v) {
+    const auto u = static_cast<std::uint16_t>(v);
+    at[0] = static_cast<std::uint8_t>(u >> 8);
+    at[1] = static_cast<std::uint8_t>(u & 0xFFu);
+  };
+  sim::LifeSample s;
+  sim::LifeTruth t;
+  std::uint32_t batches = 0, repeated = 0;
+  bool more = true;
+  while (more) {
+    float temperature = kNaN;
+    std::uint32_t n = 0;
+    for (; n < kBatch && (more = life.next(s, t)); ++n) {
+      RawFrame& f = frames[n];
+      f.t_us = s.t_us;
+      for (std::size_t i = 0; i < 3; ++i) {
+        f.acc[i] = s.acc_counts[i];
+        f.gyro[i] = s.gyro_counts[i];
+      }
+      if (n == 0 && s.temperature_new) temperature = s.imu.temperature;
+    }
+    if (n == 0) break;
+    if (batches == 100 && n > 3) frames[3].t_us = frames[2].t_us;  // a repeated timestamp
+    for (std::uint32_t k = 0; k < n; ++k) {
+      std::uint8_t* frame = bytes + 14u * k;
+      for (int i = 0; i < 3; ++i) {
+        const int j = 2 * layout.axis_order[i];
+        put16(frame + layout.acc_offset + j, frames[k].acc[i]);
+        put16(frame + layout.gyro_offset + j, frames[k].gyro[i]);
+      }
+      stamps[k] = frames[k].t_us;
+      want[k] = one.add_raw(frames[k], k == 0 ? temperature : kNaN);
+    }
+    FifoTiming timing;
+    timing.t_us = stamps;
+    const FifoResult r = batch.add_fifo(bytes, n, layout, timing, temperature, got);
+    std::uint32_t taken = 0;
+    for (std::uint32_t k = 0; k < n; ++k) {
+      ASSERT_EQ(got[k], want[k]) << "batch " << batches << " frame " << k;
+      if (sample_taken(want[k])) ++taken;
+      if (want[k] == Status::kTimeRepeated) ++repeated;
+    }
+    EXPECT_EQ(r.taken, taken);
+    EXPECT_EQ(r.taken + r.refused, n);
+    ++batches;
+  }
+  EXPECT_EQ(repeated, 1u);
+  EXPECT_EQ(batch.monitor().samples_refused(), one.monitor().samples_refused());
+  const FieldCounts& a = one.counts();
+  const FieldCounts& b = batch.counts();
+  EXPECT_GT(a.updates, 0u);  // the life published: the comparison below compares something
+  EXPECT_EQ(b.rests, a.rests);
+  EXPECT_EQ(b.taken, a.taken);
+  EXPECT_EQ(b.held, a.held);
+  EXPECT_EQ(b.updates, a.updates);
+  EXPECT_EQ(b.accel_updates, a.accel_updates);
+  Vector3<float> bias_one, bias_batch;
+  float sigma_one = 0.0f, sigma_batch = 0.0f;
+  ASSERT_TRUE(one.gyro_bias(bias_one, &sigma_one));
+  ASSERT_TRUE(batch.gyro_bias(bias_batch, &sigma_batch));
+  EXPECT_EQ(bias_batch, bias_one);  // the same arithmetic in the same order: the same bits
+  EXPECT_EQ(sigma_batch, sigma_one);
+
+  // Unreadable: an invalid layout, or no buffer.
+  const std::uint32_t refused = batch.monitor().samples_refused();
+  FifoLayout bad = layout;
+  bad.axis_order[1] = bad.axis_order[0];
+  FifoTiming timing;
+  timing.first_us = frames[0].t_us + 1000000u;
+  timing.period_q8 = 10000u * 256u;
+  const FifoResult r = batch.add_fifo(bytes, 10, bad, timing, 25.0f, got);
+  EXPECT_EQ(r.refused, 10u);
+  EXPECT_EQ(r.taken, 0u);
+  EXPECT_EQ(r.first_refusal, Status::kInvalidArgument);
+  EXPECT_EQ(got[9], Status::kInvalidArgument);
+  EXPECT_EQ(batch.add_fifo(nullptr, 3, layout, timing).refused, 3u);
+  EXPECT_EQ(batch.monitor().samples_refused(), refused + 13u);
+  EXPECT_EQ(batch.counts().rests, a.rests);
+  ASSERT_TRUE(batch.gyro_bias(bias_batch));
+  EXPECT_EQ(bias_batch, bias_one);
+}
+
 struct LifeRun {
   std::vector<double> err;  // per second, the norm of the published bias's error (mdeg/s)
   double z2 = 0.0;          // sum of (error / sigma)^2 over seconds and axes

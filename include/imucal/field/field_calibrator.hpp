@@ -62,6 +62,7 @@
 #include "imucal/models/calibration.hpp"
 #include "imucal/models/temperature_model.hpp"
 #include "imucal/status.hpp"
+#include "imucal/stream/fifo.hpp"
 #include "imucal/stream/rest_monitor.hpp"
 #include "imucal/stream/ring.hpp"
 #include "imucal/types.hpp"
@@ -444,6 +445,24 @@ class FieldCalibrator {
     const Status st = monitor_.add_raw(f, temperature);
     if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us, st);
     return st;
+  }
+
+  // A batch of frames as the sensor's FIFO delivers them (stream/fifo.hpp: where the readings are
+  // in each frame, when each was taken), and the temperature read with the batch (NaN: none),
+  // which goes with its first frame. Each frame gets the status add_raw() would give it: counted
+  // in the result, and written to statuses[k] if given (count entries). An invalid layout or a
+  // null buffer refuses every frame with kInvalidArgument (counted in the rest monitor's
+  // samples_refused()). A magnetometer reading belongs between the batches: add_mag() after the
+  // batch it arrived with.
+  FifoResult add_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
+                      const FifoTiming& timing,
+                      Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN(),
+                      Status* statuses = nullptr) {
+    return feed_fifo(
+        data, count, layout, timing, temperature, statuses,
+        [this](const RawFrame& f, Scalar t) { return add_raw(f, t); },
+        [](Status s) { return sample_taken(s); },
+        [this] { return valid_ ? monitor_.refuse_unreadable() : Status::kInvalidArgument; });
   }
 
   // The stream ended (or the caller wants what is there now): the rest in progress ends and is

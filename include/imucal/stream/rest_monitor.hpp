@@ -177,6 +177,10 @@ class RestMonitor {
     return result;
   }
 
+  // A frame its caller could not read (a FIFO batch with an invalid layout or no buffer):
+  // refused with kInvalidArgument and counted in samples_refused().
+  Status refuse_unreadable() { return checks_.refuse(Status::kInvalidArgument); }
+
   // The stream ended (or the caller wants what is there now): the unconfirmed blocks join the
   // rest (no motion followed them), and the rest in progress is handed out if long enough. The
   // next sample starts the stream again, as after a gap.
