@@ -8,7 +8,7 @@
 # the magnetometer at 50 Hz): FieldCalibrator::add_raw() per frame at rest and moving with no
 # solve under way, the mean of the calls that run a slice of a model's solve, and its largest
 # call (a rest judged or a slice); the same with the temperature once a second rather than with every
-# frame; from a stored calibration (the moves kept and walked): at rest and moving; add_mag() per call, sizeof(FieldCalibrator<float>) and the stack its calls took (painted;
+# frame; add_fifo() per frame in batches of 25; from a stored calibration (the moves kept and walked): at rest and moving; add_mag() per call, sizeof(FieldCalibrator<float>) and the stack its calls took (painted;
 # not on the M0+).
 # Each core's instruction-count programs are built in build/insn/CORE (-O2, assertions off, as
 # firmware would) with that core's toolchain file; the cores without an FPU use soft float.
@@ -67,7 +67,11 @@ for core in "${cores[@]}"; do
     # From a stored calibration (the moves kept and walked for the gyro's matrix, in the frames
     # in motion): at rest, moving.
     f_stored="$(row "stored calibration: add_raw(), still" 4) / $(row "stored calibration: add_raw(), moving" 4)"
-    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_slice / $f_largest | $f_1hz | $f_stored | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
+    # In FIFO batches of 25 (the temperature once a batch): a frame's share of a batch's call,
+    # every frame of it still / moving.
+    per_frame() { printf '%s\n' "$table" | awk -F'|' -v r="$1" 'index($2, r) { printf "%d", ($4 + 12) / 25 }'; }
+    f_fifo="$(per_frame "FIFO batches of 25: add_fifo(), still") / $(per_frame "FIFO batches of 25: add_fifo(), moving")"
+    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_slice / $f_largest | $f_1hz | $f_fifo | $f_stored | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
   fi
   [ $protocol = 1 ] || continue
   rest=$(row "add(): still" 4) moving=$(row "add(): moving" 4) init=$(row "add(): initial" 4)
@@ -84,7 +88,7 @@ for core in "${cores[@]}"; do
 done
 if [ $field = 1 ]; then
   [ $protocol = 1 ] && echo
-  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / a call with a solve slice (mean) / largest call | the same, temperature at 1 Hz instead of every frame: at rest / moving | from a stored calibration (moves kept and walked): at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) | stack of add_raw() (painted) |"
-  echo "| --- | --- | --- | --- | --- | ---: | ---: |"
+  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / a call with a solve slice (mean) / largest call | the same, temperature at 1 Hz instead of every frame: at rest / moving | add_fifo() per frame (batches of 25, the temperature once a batch): at rest / moving | from a stored calibration (moves kept and walked): at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) | stack of add_raw() (painted) |"
+  echo "| --- | --- | --- | --- | --- | --- | ---: | ---: |"
   printf '%s' "$field_rows"
 fi

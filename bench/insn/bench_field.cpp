@@ -22,6 +22,10 @@
 // keeps and walks the moves between rests for the gyro's misalignment and scale ("field, from a
 // stored calibration: ..."; without the magnetometer, the temperature with every frame; a call
 // walks a segment in the call that closed it, so the walks are in its frames in motion).
+// The same frames go to a fourth calibrator in FIFO batches of 25 (add_fifo(); without the
+// magnetometer, the temperature once a batch), each call its own region ("field, FIFO batches of
+// 25: ..."), named still or moving (every frame of the batch truly still, or not; nothing judged
+// and no solve under way) or a rest judged or a solve slice: a frame's share is the call's / 25.
 // The magnetometer's reading that arrives with every second frame (50 Hz) goes to add_mag(), each
 // call its own region, named by whether a rest was open (the field is summed) or not. The life is
 // simulated in double (slow on the cores without an FPU) between the regions, its frame written to
@@ -50,6 +54,13 @@ FieldCalibrator<float> calibrator;  // global: no guard, no stack
 FieldCalibrator<float> calibrator_1hz;
 // Started from a protocol's record: the moves between rests teach the gyro's matrix.
 FieldCalibrator<float> calibrator_stored;
+// The same frames in FIFO batches of kBatch (add_fifo(): accelerometer then gyro, 12-byte frames,
+// little-endian, the sensor's period), the temperature read once a batch (its first frame's), no
+// magnetometer: what a firmware that drains the sensor's FIFO pays.
+FieldCalibrator<float> calibrator_fifo;
+constexpr std::uint32_t kBatch = 25;
+std::uint8_t g_fifo[kBatch * 12];
+std::uint32_t g_fifo_stamps[kBatch];
 // The frame, its temperature and the field are written here before the begin marker (its memory
 // clobber orders the stores), so that converting the simulator's doubles is not counted.
 RawFrame g_frame;
@@ -104,6 +115,20 @@ FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
   return sim::field_settings(sheet);
 }
 
+// A frame into the FIFO buffer's slot k, as the sensor writes it.
+void put_fifo_frame(std::uint32_t k, const RawFrame& f) {
+  std::uint8_t* p = g_fifo + 12 * k;
+  for (int i = 0; i < 3; ++i) {
+    const auto a = static_cast<std::uint16_t>(f.acc[i]);
+    const auto g = static_cast<std::uint16_t>(f.gyro[i]);
+    p[2 * i] = static_cast<std::uint8_t>(a & 0xFFu);
+    p[2 * i + 1] = static_cast<std::uint8_t>(a >> 8);
+    p[6 + 2 * i] = static_cast<std::uint8_t>(g & 0xFFu);
+    p[6 + 2 * i + 1] = static_cast<std::uint8_t>(g >> 8);
+  }
+  g_fifo_stamps[k] = f.t_us;
+}
+
 // Everything a rest's judging changes (on_rest() and judge() count each piece somewhere).
 std::uint32_t decisions(const FieldCounts& c) {
   return c.rests + c.taken + c.turning + c.held + c.unconfirmed + c.changes + c.updates;
@@ -141,10 +166,14 @@ int main() {
   calibrator_1hz.start(settings_for(life.sheet()));
   const sim::StoredCalibration stored = sim::protocol_record(life, 0.01, 0.02);
   calibrator_stored.start(settings_for(life.sheet()), &stored.cal, &stored.model);
+  calibrator_fifo.start(settings_for(life.sheet()));
+  std::uint32_t fifo_n = 0;
+  bool fifo_still = true;
+  float fifo_temperature = std::numeric_limits<float>::quiet_NaN();
   double next_temperature_s = 0.0;
   sim::LifeSample s;
   sim::LifeTruth t;
-  std::uint32_t frames = 0, mags = 0, refused = 0, events = 0;
+  std::uint32_t frames = 0, mags = 0, refused = 0, events = 0, fifo_refused = 0;
   bench::stack_series_start(kStackWindow);
   while (life.next(s, t)) {
     g_frame.t_us = s.t_us;
@@ -227,6 +256,35 @@ int main() {
                          : "field, from a stored calibration: add_raw(), moving, per frame");
     while (calibrator_stored.take_event(e)) {
     }
+    // The FIFO: the frame joins the batch; a full batch goes in at once (the sensor's timestamps).
+    if (fifo_n == 0) {
+      fifo_still = true;
+      fifo_temperature =
+          s.temperature_new ? s.imu.temperature : std::numeric_limits<float>::quiet_NaN();
+    }
+    put_fifo_frame(fifo_n++, g_frame);
+    fifo_still = fifo_still && t.still;
+    if (fifo_n == kBatch) {
+      FifoTiming timing;
+      timing.t_us = g_fifo_stamps;
+      const std::uint32_t before_fifo = decisions(calibrator_fifo.counts());
+      const bool solving_fifo =
+          calibrator_fifo.accel_field().busy() || calibrator_fifo.mag_field().busy();
+      IMUCAL_OTHER_BEGIN();
+      const FifoResult r =
+          calibrator_fifo.add_fifo(g_fifo, kBatch, FifoLayout{}, timing, fifo_temperature);
+      IMUCAL_OTHER_END();
+      IMUCAL_OTHER_ANNOUNCE(
+          decisions(calibrator_fifo.counts()) != before_fifo || solving_fifo ||
+                  calibrator_fifo.accel_field().busy() || calibrator_fifo.mag_field().busy()
+              ? "field, FIFO batches of 25: add_fifo(), a rest judged or a solve slice, per call"
+          : fifo_still ? "field, FIFO batches of 25: add_fifo(), still, per call"
+                       : "field, FIFO batches of 25: add_fifo(), moving, per call");
+      fifo_refused += r.refused;
+      fifo_n = 0;
+      while (calibrator_fifo.take_event(e)) {
+      }
+    }
   }
   bench::report_stack("field add_raw(), add_mag()");
 
@@ -256,5 +314,12 @@ int main() {
       static_cast<unsigned>(cs.rests), static_cast<unsigned>(cs.taken),
       static_cast<unsigned>(cs.gyro_moves), static_cast<unsigned>(cs.gyro_moves_refused),
       static_cast<unsigned>(cs.gyro_matrix_updates));
-  return started == Status::kOk && refused == 0 && published ? 0 : 1;
+  std::printf(
+      "RESULT field, FIFO batches of %u (no magnetometer): %u frames refused, %u rests, %u "
+      "taken, %u updates\n",
+      static_cast<unsigned>(kBatch), static_cast<unsigned>(fifo_refused),
+      static_cast<unsigned>(calibrator_fifo.counts().rests),
+      static_cast<unsigned>(calibrator_fifo.counts().taken),
+      static_cast<unsigned>(calibrator_fifo.counts().updates));
+  return started == Status::kOk && refused == 0 && fifo_refused == 0 && published ? 0 : 1;
 }
