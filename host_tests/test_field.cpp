@@ -19,6 +19,7 @@
 #include "imucal/sim/field_settings.hpp"
 #include "imucal/sim/life_sim.hpp"
 #include "imucal/sim/random.hpp"
+#include "support/fifo_bytes.hpp"
 
 namespace imucal {
 namespace {
@@ -495,11 +496,6 @@ TEST(FieldCalibrator, AFifoBatchIsItsFrames) {
   std::uint32_t stamps[kBatch] = {};
   RawFrame frames[kBatch];
   Status want[kBatch], got[kBatch];
-  const auto put16 = [](std::uint8_t* at, std::int16_t v) {
-    const auto u = static_cast<std::uint16_t>(v);
-    at[0] = static_cast<std::uint8_t>(u >> 8);
-    at[1] = static_cast<std::uint8_t>(u & 0xFFu);
-  };
   sim::LifeSample s;
   sim::LifeTruth t;
   std::uint32_t batches = 0, repeated = 0;
@@ -519,12 +515,7 @@ TEST(FieldCalibrator, AFifoBatchIsItsFrames) {
     if (n == 0) break;
     if (batches == 100 && n > 3) frames[3].t_us = frames[2].t_us;  // a repeated timestamp
     for (std::uint32_t k = 0; k < n; ++k) {
-      std::uint8_t* frame = bytes + 14u * k;
-      for (int i = 0; i < 3; ++i) {
-        const int j = 2 * layout.axis_order[i];
-        put16(frame + layout.acc_offset + j, frames[k].acc[i]);
-        put16(frame + layout.gyro_offset + j, frames[k].gyro[i]);
-      }
+      test::put_fifo_frame(bytes, k, layout, frames[k]);
       stamps[k] = frames[k].t_us;
       want[k] = one.add_raw(frames[k], k == 0 ? temperature : kNaN);
     }

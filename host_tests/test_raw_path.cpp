@@ -18,6 +18,7 @@
 #include "imucal/stream/fifo.hpp"
 #include "imucal/stream/rest_monitor.hpp"
 #include "imucal/stream/sub_block.hpp"
+#include "support/fifo_bytes.hpp"
 #include "support/gtest_status.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"
@@ -133,16 +134,7 @@ TEST(Fifo, ABatchIsItsFramesOneByOne) {
         5000u + static_cast<std::uint32_t>(
                     (static_cast<std::uint64_t>(period_q8) * static_cast<std::uint64_t>(k)) >> 8);
     direct.push_back(f);
-    std::uint8_t* p = &bytes[static_cast<std::size_t>(k * layout.stride)];
-    for (int i = 0; i < 3; ++i) {
-      const int j = 2 * layout.axis_order[i];
-      for (auto [off, v] : {std::pair<int, std::int16_t>{layout.gyro_offset + j, f.gyro[i]},
-                            std::pair<int, std::int16_t>{layout.acc_offset + j, f.acc[i]}}) {
-        const auto u = static_cast<std::uint16_t>(v);
-        p[off] = static_cast<std::uint8_t>(u >> 8);
-        p[off + 1] = static_cast<std::uint8_t>(u & 0xFF);
-      }
-    }
+    test::put_fifo_frame(bytes.data(), static_cast<std::uint32_t>(k), layout, f);
   }
   CalibratorSettings<float> set;
   set.accel_min = -32768;

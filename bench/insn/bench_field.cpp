@@ -44,6 +44,7 @@
 #include "imucal/sim/life_sim.hpp"
 #include "markers.hpp"
 #include "stack_paint.hpp"
+#include "support/fifo_bytes.hpp"
 
 using namespace imucal;
 
@@ -113,20 +114,6 @@ sim::LifePlan bench_plan() {
 // The noise at rest and the gyro's scale from the datasheet, as the tests set it up.
 FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
   return sim::field_settings(sheet);
-}
-
-// A frame into the FIFO buffer's slot k, as the sensor writes it.
-void put_fifo_frame(std::uint32_t k, const RawFrame& f) {
-  std::uint8_t* p = g_fifo + 12 * k;
-  for (int i = 0; i < 3; ++i) {
-    const auto a = static_cast<std::uint16_t>(f.acc[i]);
-    const auto g = static_cast<std::uint16_t>(f.gyro[i]);
-    p[2 * i] = static_cast<std::uint8_t>(a & 0xFFu);
-    p[2 * i + 1] = static_cast<std::uint8_t>(a >> 8);
-    p[6 + 2 * i] = static_cast<std::uint8_t>(g & 0xFFu);
-    p[6 + 2 * i + 1] = static_cast<std::uint8_t>(g >> 8);
-  }
-  g_fifo_stamps[k] = f.t_us;
 }
 
 // Everything a rest's judging changes (on_rest() and judge() count each piece somewhere).
@@ -262,7 +249,8 @@ int main() {
       fifo_temperature =
           s.temperature_new ? s.imu.temperature : std::numeric_limits<float>::quiet_NaN();
     }
-    put_fifo_frame(fifo_n++, g_frame);
+    test::put_fifo_frame(g_fifo, fifo_n, FifoLayout{}, g_frame);
+    g_fifo_stamps[fifo_n++] = g_frame.t_us;
     fifo_still = fifo_still && t.still;
     if (fifo_n == kBatch) {
       FifoTiming timing;

@@ -16,6 +16,7 @@
 #include "imucal/stream/rest_monitor.hpp"
 #include "markers.hpp"
 #include "stack_paint.hpp"
+#include "support/fifo_bytes.hpp"
 #include "support/xsens_reader.hpp"
 #include "support/xsens_settings.hpp"
 
@@ -52,17 +53,6 @@ CalibratorSettings<float> signed_xsens_settings() {
 constexpr std::uint32_t kBatch = 25;
 std::uint8_t g_fifo[kBatch * 12];  // a FIFO's bytes: accelerometer then gyro, little-endian
 RawFrame g_frame;
-
-void put_frame(std::uint32_t k, const RawFrame& f) {
-  std::uint8_t* p = g_fifo + 12 * k;
-  for (int i = 0; i < 3; ++i) {
-    const auto a = static_cast<std::uint16_t>(f.acc[i]), g = static_cast<std::uint16_t>(f.gyro[i]);
-    p[2 * i] = static_cast<std::uint8_t>(a & 0xFF);
-    p[2 * i + 1] = static_cast<std::uint8_t>(a >> 8);
-    p[6 + 2 * i] = static_cast<std::uint8_t>(g & 0xFF);
-    p[6 + 2 * i + 1] = static_cast<std::uint8_t>(g >> 8);
-  }
-}
 
 // A 1 kHz stream of 16-bit counts made here: 6 s still, then 2 s turns about changing axes at up
 // to 3 rad/s between 3 s rests, 60 s in all, white noise of a few counts (xorshift).
@@ -119,7 +109,7 @@ bool raw_paths() {
   while (again.next(t, acc, gyro)) {
     const RawFrame f = frame_of(t, acc, gyro);
     if (n == 0) timing.first_us = f.t_us;
-    put_frame(n++, f);
+    test::put_fifo_frame(g_fifo, n++, FifoLayout{}, f);
     if (n < kBatch) continue;
     timing.period_q8 = 2560000u;  // 100 Hz
     const bool initial = calibrator.progress().phase == Phase::kInitialRest;
