@@ -54,7 +54,8 @@ ImuSample<Scalar> sample_of(const RawFrame& f) {
 // The same counts through both accumulators, a still spell then a fast turn (thousands of counts a
 // sample, beta far from zero) with a bias that is not a whole count: every sum alike to float's
 // rounding (the integer sums are exact; alpha, beta and gamma from the mean interval are exact
-// here, the steps being equal), and the same state.
+// here, the steps being equal), and the same state. The still spell's rotation is first order in
+// both.
 TEST(RawSubBlock, SumsEqualTheFloatAccumulatorsOnTheSameCounts) {
   SubBlockLimits<double> l;
   l.acc_ref = Vector3<double>(120.4, -35.2, 4095.7);
@@ -98,7 +99,13 @@ TEST(RawSubBlock, SumsEqualTheFloatAccumulatorsOnTheSameCounts) {
       EXPECT_NEAR(r.seg.beta(i), s.seg.beta(i), 1e-9 * (1 + std::abs(s.seg.beta(i)))) << i;
       EXPECT_NEAR(r.seg.gamma(i), s.seg.gamma(i), 1e-9 * (1 + std::abs(s.seg.gamma(i)))) << i;
     }
-    if (spell == 1) {
+    if (spell == 0) {  // still: first order in both (alpha and the duration)
+      EXPECT_EQ(r.seg.beta.norm(), 0.0);
+      EXPECT_EQ(s.seg.beta.norm(), 0.0);
+      EXPECT_EQ(r.seg.gamma.norm(), 0.0);
+      EXPECT_EQ(s.seg.gamma.norm(), 0.0);
+      EXPECT_GT(s.seg.alpha.norm(), 1e-3);
+    } else {
       EXPECT_GT(s.seg.beta.norm(), 1.0);  // the second-order terms were exercised
     }
   }

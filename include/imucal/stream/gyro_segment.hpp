@@ -44,6 +44,13 @@ struct GyroSegment {
     duration = t + dt;
   }
 
+  // Folds in w held for dt to first order: alpha and the duration only (a still sub-block's,
+  // stream/sub_block.hpp).
+  void add_first_order(const Vector3<Scalar>& w, Scalar dt) {
+    alpha += w * dt;
+    duration += dt;
+  }
+
   // Appends the statistics of the run that directly follows this one: the result is exactly
   // the statistics of both runs' samples in order (the cross terms between the runs are
   // alpha_1 x alpha_2 and alpha_1 T_2 - alpha_2 T_1). add() is append() of one sample.

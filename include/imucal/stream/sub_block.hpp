@@ -17,8 +17,15 @@
 //   FloatSubBlock  readings in any unit, the same sums in the scalar type (the segment
 //                  statistics sample by sample, with each sample's own interval).
 // The integer path takes the sub-block's mean interval for beta and gamma (second order; alpha
-// and the duration are exact whatever the steps). Never allocates, throws or blocks.
-// Header-only.
+// and the duration are exact whatever the steps).
+//
+// A still sub-block's rotation statistics are first order in both: alpha and the duration, with
+// beta and gamma zero. Within a sub-block beta is at most half its path angle squared and gamma
+// vanishes for a steady rate; a still sub-block turns by little (its gyro energy is below the
+// detector's threshold) and steadily, so what is left out is far below a move's noise, while
+// the cross terms between sub-blocks, which carry a move's second order, are kept
+// (GyroSegment::append()). The per-sample cost at rest, most of a device's life, drops by the
+// three cross products. Never allocates, throws or blocks. Header-only.
 #pragma once
 
 #include <cmath>
@@ -277,7 +284,10 @@ class FloatSubBlock {
     s_.energy += e;
     s_.energy_clipped += e_clipped;
     if (step_us != 0) {
-      s_.seg.add(m, dt);
+      if (still)
+        s_.seg.add_first_order(m, dt);
+      else
+        s_.seg.add(m, dt);
       ++s_.intervals;
       s_.duration_us += step_us;
     }
@@ -453,13 +463,16 @@ class RawSubBlock {
       // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the
       // earlier s of this sub-block: beta += P x s; gamma's sum of P - k s (k the earlier
       // intervals) is 2 Q - (K - 1) P at the end, Q the sum of the earlier P (finish()).
+      // A still sub-block's rotation is first order (the header says why): no beta, no gamma.
       const std::int32_t s0 = u[0] + u_prev_[0], s1 = u[1] + u_prev_[1], s2 = u[2] + u_prev_[2];
-      detail::cross_add(x_[0], p_[1], s2, p_[2], s1);
-      detail::cross_add(x_[1], p_[2], s0, p_[0], s2);
-      detail::cross_add(x_[2], p_[0], s1, p_[1], s0);
-      q_[0] += static_cast<std::uint32_t>(p_[0]);
-      q_[1] += static_cast<std::uint32_t>(p_[1]);
-      q_[2] += static_cast<std::uint32_t>(p_[2]);
+      if (!still) {
+        detail::cross_add(x_[0], p_[1], s2, p_[2], s1);
+        detail::cross_add(x_[1], p_[2], s0, p_[0], s2);
+        detail::cross_add(x_[2], p_[0], s1, p_[1], s0);
+        q_[0] += static_cast<std::uint32_t>(p_[0]);
+        q_[1] += static_cast<std::uint32_t>(p_[1]);
+        q_[2] += static_cast<std::uint32_t>(p_[2]);
+      }
       p_[0] += s0;
       p_[1] += s1;
       p_[2] += s2;
@@ -530,8 +543,10 @@ class RawSubBlock {
         const Scalar a = h0 * static_cast<Scalar>(p_[i]);
         s.seg.alpha(i) =
             Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
-        s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
-        s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i));
+        if (!sub_still_) {
+          s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
+          s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i));
+        }
       }
       s.seg.duration = duration;
       if (!db_zero_) s.seg.add_bias(db_);
