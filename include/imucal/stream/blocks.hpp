@@ -53,8 +53,9 @@ struct SampleBlock {
     long_enough = false;
   }
 
+  // One division (a soft-float division costs three multiplies on a core without an FPU).
   Vector3<Scalar> acc_mean() const {
-    return acc_ref + (acc_sum + acc_comp) / static_cast<Scalar>(n);
+    return acc_ref + (acc_sum + acc_comp) * (Scalar(1) / static_cast<Scalar>(n));
   }
 
   // A sub-block's samples follow this block's.

@@ -76,7 +76,7 @@ class Segmenter {
     trim_us_ = static_cast<std::uint32_t>(s.trim_seconds * Scalar(1e6));
     min_rest_seconds_ = s.min_rest_seconds;
     max_rest_seconds_ = s.max_rest_seconds;
-    accel_shift_max_ = s.accel_shift_max;
+    accel_shift_max2_ = s.accel_shift_max * s.accel_shift_max;
     clear();
     raw_mode_ = false;
     mean_follows_ = false;
@@ -365,11 +365,12 @@ class Segmenter {
   // A rest that has lasted max_rest_seconds, or tilted by accel_shift_max, ends before b.
   bool split_before(const Block& b) const {
     if (max_rest_seconds_ == std::numeric_limits<Scalar>::infinity() &&
-        accel_shift_max_ == std::numeric_limits<Scalar>::infinity())
+        accel_shift_max2_ == std::numeric_limits<Scalar>::infinity())
       return false;
     const Scalar span = static_cast<Scalar>(b.t_end - rest_.t_begin) * Scalar(1e-6);
     if (span > max_rest_seconds_) return true;
-    return !((b.acc_mean() - rest_.acc_mean()).norm() <= accel_shift_max_);
+    // Squared: no square root (a NaN still splits).
+    return !((b.acc_mean() - rest_.acc_mean()).squaredNorm() <= accel_shift_max2_);
   }
 
   // The open rest ends (motion, gap, end of stream, a split).
@@ -402,7 +403,7 @@ class Segmenter {
   Block rest_{};
   Scalar min_rest_seconds_ = Scalar(0), stillness_seconds_ = Scalar(0.1);
   Scalar max_rest_seconds_ = std::numeric_limits<Scalar>::infinity();
-  Scalar accel_shift_max_ = std::numeric_limits<Scalar>::infinity();
+  Scalar accel_shift_max2_ = std::numeric_limits<Scalar>::infinity();  // squared
 };
 
 }  // namespace imucal
