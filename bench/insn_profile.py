@@ -5,7 +5,9 @@ QEMU with the counting plugin in profile mode (bench/qemu_plugin), then sums the
 of the functions whose names match FUNCTIONS by the project's source line they come from (code
 inlined from Eigen or the C++ library counts at the project line that called it; a function
 compiled outside the project, such as a soft-float routine, counts under its own name), divided by
-the number of regions profiled: the first REGIONS regions if given, else all. Markdown out.
+the number of regions profiled: the first REGIONS regions if given, else all. A second table
+charges the routines outside the project (soft float on a core without an FPU) to the project
+lines that call them. Markdown out.
 
   bench/insn_profile.py PRESET ELF FUNCTIONS [REGIONS] [LINES]
   bench/insn_profile.py m4f build/insn/m4f/bench/bench_stream_insn . 51175
@@ -15,7 +17,9 @@ recording: with '.' as FUNCTIONS, where add()'s instructions go, averaged over e
 (initial rest, rests and moves together). The programs are built with -g1 (bench/insn_cores.sh
 builds them in build/insn/CORE). Built with -DIMUCAL_BENCH_RAW_FIRST, bench_stream_insn's first
 51175 regions are add_raw()'s instead; built with -DIMUCAL_BENCH_PROFILE_FIELD, bench_field_insn's
-regions are the field calibrator's add_raw() calls alone (REGIONS 0: all of them). For example:
+regions are the field calibrator's add_raw() calls alone (REGIONS 0: all of them), and with
+-DIMUCAL_BENCH_PROFILE_STILL as well only those of still frames while no model solves (a rest
+judged in one of them still counts). For example:
 
   cmake -S . -B build/prof/m0plus -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g -DIMUCAL_BENCH_PROFILE_FIELD" \
@@ -121,6 +125,58 @@ def main():
         code = code[:80].replace("|", "\\|")
         where = (where if len(where) <= 100 else where[:99] + "…").replace("|", "\\|")
         print(f"| {n / regions:.1f} | {where} | `{code}` |")
+    print_runtime_callers(prefix, elf, counts, regions, functions, root, top)
+
+
+def print_runtime_callers(prefix, elf, counts, regions, functions, root, top):
+    """The instructions of routines outside the project's sources (soft float, the C runtime)
+    charged to the project line that calls them: each call site's count (its call instruction's)
+    times the routine's own instructions per call. A routine's calls into others count at the
+    routine's name."""
+    dis = subprocess.run([prefix + "objdump", "-d", "--no-show-raw-insn", elf], capture_output=True,
+                         text=True, check=True).stdout
+    call = re.compile(r"^\s*([0-9a-f]+):\s+(?:bl|blx|jal|call)\s+(?:ra,)?\s*[0-9a-f]+ <([^>+]+)>")
+    sites = [(int(m.group(1), 16), m.group(2)) for m in map(call.match, dis.splitlines()) if m]
+    sites = [(a, name) for a, name in sites if a in counts]
+    span = {name: (lo, hi) for lo, hi, name in functions}
+    own = {}
+    for lo, hi, name in functions:
+        n = sum(c for a, c in counts.items() if lo <= a < hi)
+        if n:
+            own[name] = n
+    calls = {}
+    for a, name in sites:
+        calls[name] = calls.get(name, 0) + counts[a]
+    # Routines outside the project: no instruction of theirs maps to a project line.
+    names = sorted(own)
+    firsts = subprocess.run([prefix + "addr2line", "-e", elf] + [hex(span[n][0]) for n in names],
+                            capture_output=True, text=True, check=True).stdout.splitlines()
+    outside = {n for n, text in zip(names, firsts) if not text.startswith(root + "/")}
+    charged = [(a, name) for a, name in sites if name in outside and calls.get(name)]
+    if not charged:
+        return
+    where = subprocess.run([prefix + "addr2line", "-i", "-a", "-e", elf] +
+                           [hex(a) for a, _ in charged], capture_output=True, text=True,
+                           check=True).stdout.splitlines()
+    line_of, address = {}, None
+    for text in where + ["0x"]:
+        if text.startswith("0x"):
+            address = int(text, 16) if text != "0x" else None
+            continue
+        path, _, line = text.partition(" ")[0].rpartition(":")
+        path = os.path.realpath(path) if path.startswith("/") else path
+        if address not in line_of and path.startswith(root + "/") and line.isdigit():
+            line_of[address] = f"{os.path.relpath(path, root)}:{line}"
+    by_line = {}
+    for a, name in charged:
+        key = line_of.get(a) or f"({next((f for lo, hi, f in functions if lo <= a < hi), '?')})"
+        by_line[key] = by_line.get(key, 0) + counts[a] * own[name] / calls[name]
+    print(f"\nruntime routines (soft float, the C runtime) charged to the lines that call them: "
+          f"{sum(by_line.values()) / regions:.1f} instructions per region\n")
+    print("| instructions per region | calling line |")
+    print("| ---: | --- |")
+    for key, n in sorted(by_line.items(), key=lambda kv: -kv[1])[:top]:
+        print(f"| {n / regions:.1f} | {key} |")
 
 
 if __name__ == "__main__":

@@ -135,7 +135,8 @@ const char* judged_name(const FieldCounts& a, const FieldCounts& b) {
 
 // Built with IMUCAL_BENCH_PROFILE_FIELD defined, only the first calibrator's add_raw() calls are
 // counted regions (one per frame, for bench/insn_profile.py); add_mag() and the 1 Hz variant run
-// outside them.
+// outside them; with IMUCAL_BENCH_PROFILE_STILL as well, only those of still frames while no
+// model solves.
 #ifdef IMUCAL_BENCH_PROFILE_FIELD
 #define IMUCAL_OTHER_BEGIN() ((void)0)
 #define IMUCAL_OTHER_END() ((void)0)
@@ -172,9 +173,14 @@ int main() {
     const FieldCounts before = calibrator.counts();
     const bool solving = calibrator.accel_field().busy() || calibrator.mag_field().busy();
     bench::stack_paint();
-    imucal_bench_begin();
+#ifdef IMUCAL_BENCH_PROFILE_STILL
+    const bool counted = t.still && !solving;
+#else
+    const bool counted = true;
+#endif
+    if (counted) imucal_bench_begin();
     const Status st = calibrator.add_raw(g_frame, g_temperature);
-    imucal_bench_end();
+    if (counted) imucal_bench_end();
     bench::stack_measure();
     ++frames;
     if (!(st == Status::kOk || sample_taken(st))) ++refused;
