@@ -536,20 +536,24 @@ class RawSubBlock {
     // alpha = h/2 P, beta = h^2/4 X, gamma = h^2/2 Y; then the rest of the bias, exactly.
     const Scalar duration = static_cast<Scalar>(duration_us_) * Scalar(1e-6);
     if (intervals_ > 0) {
-      const Scalar h = duration / static_cast<Scalar>(intervals_);
-      const Scalar b = Scalar(0.25) * h * h, g = Scalar(0.5) * h * h;
       const Scalar h0 = static_cast<Scalar>(step0_) * Scalar(1e-6);
       for (int i = 0; i < 3; ++i) {
         const Scalar a = h0 * static_cast<Scalar>(p_[i]);
         s.seg.alpha(i) =
             Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
-        if (!sub_still_) {
+      }
+      s.seg.duration = duration;
+      if (!sub_still_) {
+        const Scalar h = duration / static_cast<Scalar>(intervals_);
+        const Scalar b = Scalar(0.25) * h * h, g = Scalar(0.5) * h * h;
+        for (int i = 0; i < 3; ++i) {
           s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
           s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i));
         }
+        if (!db_zero_) s.seg.add_bias(db_);
+      } else if (!db_zero_) {
+        s.seg.alpha += duration * db_;  // add_bias() of a first-order segment (gamma zero)
       }
-      s.seg.duration = duration;
-      if (!db_zero_) s.seg.add_bias(db_);
     }
     s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
     temp_.finish(s);
