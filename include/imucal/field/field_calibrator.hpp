@@ -293,10 +293,9 @@ class FieldCalibrator {
     reset_dip();
     took_ = false;
     temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
-    temperature_us_ = 0;
-    temp_batch_q_ = 0;
-    temp_batch_n_ = 0;
+    temperature_us_ = 0 - kTemperatureBatchUs;  // the first reading is smoothed at once
     temps_seen_ = 0;
+    temp_sum_seen_ = 0;
     doubt_ = Scalar(0);
     if (!valid_) return Status::kInvalidArgument;
     const Scalar k = settings.gyro_per_rad_s;
@@ -425,6 +424,7 @@ class FieldCalibrator {
     monitor_.reset(monitor_settings(gyro_cue_));
     update_move_keeping();
     rests_seen_ = temps_seen_ = 0;
+    temp_sum_seen_ = 0;
     detector_temperature_ = temperature_;
     return result;
   }
@@ -732,11 +732,16 @@ class FieldCalibrator {
   // lag of a plain moving mean on a warming board: twice the moving mean less its own moving mean
   // follows a ramp exactly. The batch's mean stands for its readings (a batch is short beside
   // temperature_seconds).
-  void smooth_temperature() {
-    const Scalar reading = detail::to_scalar<Scalar>(temp_batch_q_) *
-                           Scalar(1.0 / detail::kTemperatureQ) / static_cast<Scalar>(temp_batch_n_);
-    temp_batch_q_ = 0;
-    temp_batch_n_ = 0;
+  void smooth_temperature(const TemperatureMean<Scalar>& readings) {
+    // The batch's mean from the front end's running sum (relative to its first reading) and
+    // count, less what earlier batches took: no per-frame work here.
+    const std::int64_t sum = readings.sum_q();
+    const std::uint32_t n = readings.count() - temps_seen_;
+    const Scalar reading = readings.ref() + detail::to_scalar<Scalar>(sum - temp_sum_seen_) *
+                                                Scalar(1.0 / detail::kTemperatureQ) /
+                                                static_cast<Scalar>(n);
+    temps_seen_ = readings.count();
+    temp_sum_seen_ = sum;
     const std::uint64_t since = elapsed_us_ - temperature_us_;
     temperature_us_ = elapsed_us_;
     if (detail::is_nan(temperature_) || since > 600000000u) {
@@ -761,15 +766,10 @@ class FieldCalibrator {
       elapsed_us_ += static_cast<std::uint32_t>(t_us - last_t_us_);
     }
     last_t_us_ = t_us;
-    // Each temperature the front end took, summed in fixed point, smoothed once a batch.
+    // The temperatures the front end took (it sums them in fixed point), smoothed once a batch.
     const TemperatureMean<Scalar>& readings = monitor_.temperatures();
-    if (readings.count() != temps_seen_) {
-      temps_seen_ = readings.count();
-      temp_batch_q_ += readings.last_q();
-      ++temp_batch_n_;
-      if (detail::is_nan(temperature_) || elapsed_us_ - temperature_us_ >= kTemperatureBatchUs)
-        smooth_temperature();
-    }
+    if (readings.count() != temps_seen_ && elapsed_us_ - temperature_us_ >= kTemperatureBatchUs)
+      smooth_temperature(readings);
     if (monitor_.rests_found() != rests_seen_) {
       rests_seen_ = monitor_.rests_found();
       RestSummary<Scalar> r;
@@ -1318,6 +1318,7 @@ class FieldCalibrator {
       monitor_.reset(monitor_settings(true));
       update_move_keeping();
       rests_seen_ = temps_seen_ = 0;
+      temp_sum_seen_ = 0;
       gyro_cue_ = true;
       pending_ = false;
     }
@@ -1524,15 +1525,15 @@ class FieldCalibrator {
   bool gyro_cue_ = false;  // the detector uses the gyro (from the first publication on)
   Scalar q_ = Scalar(0), floor2_ = Scalar(0), noise_axis_ = Scalar(0);
   Scalar temperature_ = std::numeric_limits<Scalar>::quiet_NaN();  // the readings' moving mean
-  std::uint64_t temperature_us_ = 0;                               // its latest reading
+  std::uint64_t temperature_us_ = 0;  // the latest smoothing (kTemperatureBatchUs before the first)
   Scalar temperature_weight_ = Scalar(0);  // the smoothing's weight per microsecond
   std::uint32_t rests_seen_ = 0;           // the rest monitor's rests_found() taken so far
   Scalar temp_mean_ = Scalar(0), temp_mean2_ = Scalar(0);  // the moving mean, and its own
-  // The readings since the last smoothing (1/4096 deg C), smoothed every kTemperatureBatchUs.
-  static constexpr std::uint64_t kTemperatureBatchUs = 100000;
-  std::int64_t temp_batch_q_ = 0;
-  std::uint32_t temp_batch_n_ = 0;
-  std::uint32_t temps_seen_ = 0;  // the monitor's temperatures().count() taken so far
+  // The readings are smoothed once every kTemperatureBatchUs, short beside temperature_seconds:
+  // the monitor's temperatures().count() and sum_q() at the last smoothing.
+  static constexpr std::uint64_t kTemperatureBatchUs = 500000;
+  std::int64_t temp_sum_seen_ = 0;
+  std::uint32_t temps_seen_ = 0;
   bool clock_started_ = false;
   std::uint32_t last_t_us_ = 0;
   std::uint64_t elapsed_us_ = 0, filter_time_us_ = 0;

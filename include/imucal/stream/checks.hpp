@@ -171,19 +171,19 @@ class TemperatureMean {
       has_ref_ = true;
     }
     sum_q_ += q - ref_q_;
-    last_q_ = q;
     ++n_;
   }
   // The first reading: sums elsewhere (a block's, a rest's) are relative to it.
   Scalar ref() const { return detail::from_temperature_q<Scalar>(ref_q_); }
   std::int32_t ref_q() const { return ref_q_; }
-  // The latest reading (1/4096 deg C); count() tells when a new one came.
-  std::int32_t last_q() const { return last_q_; }
   // The readings so far, relative to ref(), summed.
   Scalar sum() const {
     return detail::to_scalar<Scalar>(sum_q_) * Scalar(1.0 / detail::kTemperatureQ);
   }
+  // How many readings came (a new one changes it).
   std::uint32_t count() const { return n_; }
+  // The readings so far, relative to ref_q(), summed (1/4096 deg C).
+  std::int64_t sum_q() const { return sum_q_; }
   // False if no reading came.
   bool mean(Scalar& out) const {
     if (n_ == 0) return false;
@@ -192,7 +192,7 @@ class TemperatureMean {
   }
 
  private:
-  std::int32_t ref_q_ = 0, last_q_ = 0;
+  std::int32_t ref_q_ = 0;
   std::int64_t sum_q_ = 0;
   bool has_ref_ = false;
   std::uint32_t n_ = 0;
