@@ -33,7 +33,8 @@
 // name. Not a test: it reports, it does not judge. It also reports the deepest stack use of
 // add_raw() and add_mag() (one "STACK" line: bytes below main's stack pointer, stack_paint.hpp;
 // add_raw()'s, add_mag() is a leaf), painted before and measured after each call, outside the
-// counted regions, and sizeof(FieldCalibrator<float>).
+// counted regions, and sizeof(FieldCalibrator<float>), with and without the magnetometer's model
+// (MagCells 0).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -288,13 +289,14 @@ int main() {
   std::printf(
       "RESULT field: start %s, %u frames (%u refused), %u add_mag() calls, %u events: %u rests, "
       "%u taken, %u turning, %u held, %u unconfirmed, %u changes, %u updates; published %d; "
-      "sizeof %u\n",
+      "sizeof %u, without a magnetometer %u\n",
       to_string(started), static_cast<unsigned>(frames), static_cast<unsigned>(refused),
       static_cast<unsigned>(mags), static_cast<unsigned>(events), static_cast<unsigned>(c.rests),
       static_cast<unsigned>(c.taken), static_cast<unsigned>(c.turning),
       static_cast<unsigned>(c.held), static_cast<unsigned>(c.unconfirmed),
       static_cast<unsigned>(c.changes), static_cast<unsigned>(c.updates), published ? 1 : 0,
-      static_cast<unsigned>(sizeof(calibrator)));
+      static_cast<unsigned>(sizeof(calibrator)),
+      static_cast<unsigned>(sizeof(FieldCalibrator<float, 8, 0>)));
   std::printf(
       "RESULT field, temperature at 1 Hz (no magnetometer): %u rests, %u taken, %u "
       "updates\n",

@@ -867,4 +867,49 @@ class AccelField {
   Status solve_status_ = Status::kNotStarted;
 };
 
+// No cells: the model compiled out (a field calibrator built without a magnetometer,
+// FieldCalibrator's MagCells = 0). It is never enabled: start() refuses settings that enable it
+// (kInvalidArgument) and takes nothing; everything else says there is no model.
+template <typename Scalar>
+class AccelField<Scalar, 0> {
+ public:
+  static constexpr int kTemperatureParams = 6;
+  static constexpr int kParams = kAccelParams + kTemperatureParams;
+  using Vector = Eigen::Matrix<Scalar, kParams, 1>;
+  using Settings = AccelFieldSettings<Scalar>;
+  static constexpr std::size_t kCells = 0;
+
+  Status start(const Settings& settings, const AccelCalibration<Scalar>* = nullptr,
+               const TemperatureModel<Scalar>* = nullptr, Scalar = Scalar(25)) {
+    return settings.enabled ? Status::kInvalidArgument : Status::kOk;
+  }
+  AccelFieldEvent add(const Vector3<Scalar>&, Scalar, Scalar, std::uint64_t, std::uint32_t,
+                      Scalar = Scalar(0)) {
+    return AccelFieldEvent::kNone;
+  }
+  bool disagrees(const Vector3<Scalar>&, Scalar) const { return false; }
+  Scalar gate() const { return Scalar(0); }
+  bool holding() const { return false; }
+  AccelFieldEvent step() { return AccelFieldEvent::kNone; }
+  bool busy() const { return false; }
+  bool full() const { return false; }
+  bool covers(const Vector3<Scalar>&) const { return false; }
+  bool enabled() const { return false; }
+  bool published() const { return false; }
+  std::size_t cells() const { return 0; }
+  int update_reason() const { return 0; }
+  Scalar last_chi2() const { return Scalar(0); }
+  bool bias(Scalar, Scalar, Vector3<Scalar>& out, Vector3<Scalar>* sigma = nullptr,
+            bool = false) const {
+    out.setZero();
+    if (sigma != nullptr) sigma->setZero();
+    return false;
+  }
+  void model(AccelCalibration<Scalar>&, TemperatureBias<Scalar>& temperature) const {
+    temperature.status = Status::kNotStarted;
+  }
+  Vector published_parameters() const { return Vector::Zero(); }
+  Vector published_sigmas() const { return Vector::Zero(); }
+};
+
 }  // namespace imucal

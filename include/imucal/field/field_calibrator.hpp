@@ -48,7 +48,9 @@
 // Units: raw gyro units (the bias is ADDED to the raw reading, as in the calibration:
 // w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
 // Fixed memory (sizeof docs/field.md states per target), no allocation, no exceptions.
-// Header-only.
+// Capacities: Events, the decisions waiting to be taken; MagCells, the magnetometer model's cells
+// of field directions (0: built without a magnetometer, its model compiled out, about 3 KB less;
+// settings that enable it are then refused with kInvalidArgument). Header-only.
 #pragma once
 
 #include <cmath>
@@ -248,7 +250,7 @@ struct FieldCounts {
   std::uint32_t gyro_matrix_changes = 0;
 };
 
-template <typename Scalar, int Events = 8>
+template <typename Scalar, int Events = 8, int MagCells = 26>
 class FieldCalibrator {
  public:
   using Settings = FieldSettings<Scalar>;
@@ -664,7 +666,7 @@ class FieldCalibrator {
     out.samples = static_cast<int>(mag_.cells());
     return true;
   }
-  const AccelField<Scalar, 26>& mag_field() const { return mag_; }
+  const AccelField<Scalar, MagCells>& mag_field() const { return mag_; }
   const FieldCounts& counts() const { return counts_; }
   const Monitor& monitor() const { return monitor_; }
   const GyroField<Scalar>& gyro_field() const { return gyro_field_; }
@@ -1553,7 +1555,7 @@ class FieldCalibrator {
   std::uint32_t accel_rests_ = 0;  // rests the accelerometer's model took
   Scalar accel_noise_axis_ = Scalar(0);
   // The magnetometer's model (mag_field.hpp): a cell for each of the 26 directions.
-  AccelField<Scalar, 26> mag_{};
+  AccelField<Scalar, MagCells> mag_{};
   Scalar mag_reading_var_ = Scalar(0);  // one reading's variance per axis, at the last rest
   // Rest pieces taken, for the magnetometer's model in later calls (a call may judge two).
   struct MagPiece {
