@@ -49,7 +49,7 @@
 // w = T K (w_raw + b)); settings in physical units convert through gyro_per_rad_s.
 // Fixed memory (sizeof docs/field.md states per target), no allocation, no exceptions.
 // Capacities: Events, the decisions waiting to be taken; MagCells, the magnetometer model's cells
-// of field directions (0: built without a magnetometer, its model compiled out, about 3 KB less;
+// of field directions (0: built without a magnetometer, its model compiled out, 2,800 B less;
 // settings that enable it are then refused with kInvalidArgument). Header-only.
 #pragma once
 
@@ -296,8 +296,7 @@ class FieldCalibrator {
     took_ = false;
     temperature_ = std::numeric_limits<Scalar>::quiet_NaN();
     temperature_us_ = 0 - kTemperatureBatchUs;  // the first reading is smoothed at once
-    temps_seen_ = 0;
-    temp_sum_seen_ = 0;
+    monitor_restarted();
     doubt_ = Scalar(0);
     if (!valid_) return Status::kInvalidArgument;
     const Scalar k = settings.gyro_per_rad_s;
@@ -425,8 +424,7 @@ class FieldCalibrator {
     gyro_cue_ = has_published_;
     monitor_.reset(monitor_settings(gyro_cue_));
     update_move_keeping();
-    rests_seen_ = temps_seen_ = 0;
-    temp_sum_seen_ = 0;
+    monitor_restarted();
     detector_temperature_ = temperature_;
     return result;
   }
@@ -758,6 +756,12 @@ class FieldCalibrator {
     // The detector removes the published bias at the temperature now.
     if (has_published_ && !(std::fabs(temperature_ - detector_temperature_) <= Scalar(0.25)))
       set_detector_bias();
+  }
+
+  // The rest monitor was reset: its counts of rests and temperatures start again from zero.
+  void monitor_restarted() {
+    rests_seen_ = temps_seen_ = 0;
+    temp_sum_seen_ = 0;
   }
 
   void after_sample(std::uint32_t t_us, Status st) {
@@ -1319,8 +1323,7 @@ class FieldCalibrator {
     if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
       monitor_.reset(monitor_settings(true));
       update_move_keeping();
-      rests_seen_ = temps_seen_ = 0;
-      temp_sum_seen_ = 0;
+      monitor_restarted();
       gyro_cue_ = true;
       pending_ = false;
     }

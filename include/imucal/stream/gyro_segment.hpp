@@ -66,6 +66,8 @@ struct GyroSegment {
     beta += gamma.cross(db);
     alpha += duration * db;
   }
+  // add_bias() of a first-order segment (add_first_order()'s: beta and gamma zero, and stay so).
+  void add_bias_first_order(const Vector3<Scalar>& db) { alpha += duration * db; }
 
   // The segment's rotation vector for the model w_cal = M (w_raw + b), to second order
   // (Magnus/BCH): Omega = M alpha_b + 1/2 cof(M) beta_b with alpha_b = alpha + T b and

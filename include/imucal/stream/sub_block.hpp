@@ -552,7 +552,7 @@ class RawSubBlock {
         }
         if (!db_zero_) s.seg.add_bias(db_);
       } else if (!db_zero_) {
-        s.seg.alpha += duration * db_;  // add_bias() of a first-order segment (gamma zero)
+        s.seg.add_bias_first_order(db_);
       }
     }
     s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
