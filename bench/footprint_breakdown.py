@@ -19,8 +19,12 @@ import sys
 # wins.
 PARTS = [
     ("Eigen's out-of-line code (small fixed-size expressions GCC did not inline)", r"^Eigen::"),
+    ("field calibrator: decisions, the accelerometer's, gyro's and magnetometer's models, saves",
+     r"^imucal::(FieldCalibrator|FieldSettings|AccelField|GyroField|GyroFieldSettings|BiasFilter|"
+     r"MagField|mag_prior|save_field|resume_field)(?!\w)"),
     ("streaming calibrator: stream checks, initial rest, stillness, blocks, moves, poses",
      r"^imucal::(Calibrator|InitialRestWindow|PoseCollection|PoseStore|MoveStore|SampleBlock|"
+     r"Segmenter|RawSubBlock|FloatSubBlock|SubBlockStats|StreamChecks|RestSummary|"
      r"DelayLine|GyroSegment|FullScale|RateWatch|ClockResetWatch|StillnessDetector|"
      r"TemperatureMean|SolveSequence|judge_quality|coverage_hint|set_coverage|split_rest_rotation|"
      r"compensated_add)(?!\w)"),

@@ -18,7 +18,10 @@ names=("load and apply (record store + corrector)"
        "accelerometer alone (solver from pose means, store, corrector)"
        "accelerometer + gyro: the streaming calibrator, store, corrector"
        "+ magnetometer (collector, solve, alignment)"
-       "+ temperature (rest monitor, fit): everything")
+       "+ temperature (rest monitor, fit)"
+       "+ field calibrator (its saves and resume): everything"
+       "field calibrator alone (resume, frames, FIFO, magnetometer, save, corrector)"
+       "the same without a magnetometer (FieldCalibrator<float, 8, 0>)")
 echo "| parts | target | level | text | data | bss |"
 echo "| --- | --- | --- | ---: | ---: | ---: |"
 for config in "${configs[@]}"; do
@@ -32,9 +35,9 @@ for config in "${configs[@]}"; do
       -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF -DIMUCAL_BUILD_BENCH=ON \
       -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
       -DIMUCAL_FOOTPRINT_OPT="$level${flags:+;$flags}" -DIMUCAL_FOOTPRINT_LTO=OFF >/dev/null
-    for parts in 1 2 3 4 5; do
+    for parts in 1 2 3 4 5 6 7 8; do
       program=imucal_footprint_parts$parts
-      [ "$parts" = 5 ] && program=imucal_footprint
+      [ "$parts" = 6 ] && program=imucal_footprint
       log="$dir/$program.log"
       rm -f "$dir/bench/$program"  # relinked, so the size check prints its sizes again
       if ! cmake --build "$dir" --target "$program" >"$log" 2>&1; then

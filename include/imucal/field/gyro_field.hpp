@@ -249,7 +249,7 @@ class GyroField {
   // One move's Kalman update of (theta, p), the rows linearised at `at`: gated (false, nothing
   // changed, when outside the gate or degenerate; chi2 the gate's statistic, 0 if degenerate).
   bool kalman(const Move& m, const Vector& at, Vector& theta, Matrix& p, Scalar& chi2) const {
-    const Eigen::Matrix<Scalar, N, 2> pj = p * m.j.transpose();
+    const Eigen::Matrix<Scalar, N, 2> pj = p.lazyProduct(m.j.transpose());
     Eigen::Matrix<Scalar, 2, 2> s = m.j * pj;
     s(0, 0) += m.noise;
     s(1, 1) += m.noise;
@@ -262,11 +262,14 @@ class GyroField {
     const Eigen::Matrix<Scalar, 2, 1> r = m.r + m.j * (theta - at);
     chi2 = r.dot(si * r);
     if (!(chi2 <= settings_.gate_chi2)) return false;
-    // Joseph's form keeps the covariance symmetric and positive in float.
+    // Joseph's form keeps the covariance symmetric and positive in float. The products with a
+    // side of N are coefficient-based (lazyProduct): Eigen's blocked product for them would link
+    // the heap allocator it falls back on.
     const Eigen::Matrix<Scalar, N, 2> k = pj * si;
     theta -= k * r;
-    const Matrix a = Matrix::Identity() - k * m.j;
-    p = a * p * a.transpose() + m.noise * (k * k.transpose());
+    const Matrix a = Matrix::Identity() - k.lazyProduct(m.j);
+    const Matrix ap = a.lazyProduct(p);
+    p = ap.lazyProduct(a.transpose()) + m.noise * k.lazyProduct(k.transpose());
     p = Scalar(0.5) * (p + p.transpose()).eval();
     return true;
   }
