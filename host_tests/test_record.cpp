@@ -9,6 +9,7 @@
 #include <cstring>
 #include <initializer_list>
 #include <limits>
+#include <new>
 
 #include "imucal/corrector.hpp"
 #include "imucal/store/record.hpp"
@@ -109,6 +110,35 @@ void expect_same(const CalibrationRecord& a, const CalibrationRecord& b) {
       EXPECT_EQ(p->b2_sigma, q->b2_sigma);
     }
   }
+}
+
+// Whether value holds T's defaults: T default-constructed in zeroed storage (its initialisers
+// written; what it leaves unset, such as an Eigen matrix without an initialiser, and the padding
+// stay zero, as CalibrationRecord() leaves them), compared byte for byte.
+template <class T>
+bool holds_defaults(const T& value) {
+  alignas(T) unsigned char storage[sizeof(T)];
+  std::memset(storage, 0, sizeof storage);
+  const T* fresh = new (storage) T;
+  return std::memcmp(static_cast<const void*>(fresh), static_cast<const void*>(&value),
+                     sizeof(T)) == 0;
+}
+
+// CalibrationRecord() zero-fills and sets the few defaults that are not zero (record.cpp): they
+// must be the members' own, whatever member is added or default changed.
+TEST(Record, DefaultsAreTheMembersOwn) {
+  const CalibrationRecord r;
+  EXPECT_EQ(r.version, kRecordVersion);
+  EXPECT_EQ(r.device_id, 0u);
+  EXPECT_EQ(r.sensor_id, 0u);
+  EXPECT_EQ(r.parts, 0u);
+  EXPECT_EQ(r.unknown_sections, 0);
+  EXPECT_TRUE(holds_defaults(r.calibration));
+  EXPECT_TRUE(holds_defaults(r.mag));
+  EXPECT_TRUE(holds_defaults(r.temperature));
+  const CalibrationRecord copy(r);
+  EXPECT_EQ(std::memcmp(static_cast<const void*>(&copy), static_cast<const void*>(&r), sizeof r),
+            0);
 }
 
 TEST(Crc32, MatchesTheStandardCheckValue) {

@@ -4,7 +4,6 @@
 // both: the decoder reads and checks through it, the encoder writes.
 #include "imucal/store/record.hpp"
 
-#include <Eigen/LU>  // determinant()
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -105,7 +104,7 @@ static_assert(sizeof kRanges / sizeof kRanges[0] == kDip + 1, "a range for every
 
 bool meets(float v, Kind k) {
   const Range& r = kRanges[k];
-  return v >= r.lo && v <= r.hi && !(r.nonzero && v == 0.0f);
+  return bounds::in_range(v, r.lo, r.hi) && !(r.nonzero && bounds::magnitude_bits(v) == 0u);
 }
 bool all_meet(const float* v, int n, Kind k) {
   for (int i = 0; i < n; ++i)
@@ -258,8 +257,8 @@ class Reader {
     bool ok;
     if (k == kNote)
       ok = meets(v, (flags_ & 1u) != 0 ? kCelsius : kZeroOnly);
-    else if (k == kTop)
-      ok = meets(v, kCelsius) && last_ <= v;
+    else if (k == kTop)  // the real before it checked already (a NaN there is the first wrong)
+      ok = meets(v, kCelsius) && bounds::at_most(last_, v);
     else
       ok = meets(v, k);
     check(ok, 4);
@@ -288,7 +287,7 @@ void Reader::fields(const Field* f, int n, void* base) {
         Matrix3<float>& s = *member<Matrix3<float>>(base, f->at);
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) s(r, c) = real(kFinite);
-        check(s.determinant() > 0.0f, 36);
+        check(bounds::positive(bounds::determinant(s)), 36);
         break;
       }
       case kCount:
@@ -424,7 +423,7 @@ bool gyro_ok(const GyroCalibration<float>& g) {
 }
 bool mag_ok(const MagCalibration<float>& m) {
   return m.samples >= 1 && m.samples <= 0xFFFF && m.quality <= Quality::kGood &&
-         all_finite_f(m.soft_iron) && m.soft_iron.determinant() > 0.0f &&
+         all_finite_f(m.soft_iron) && bounds::positive(bounds::determinant(m.soft_iron)) &&
          all_finite_f(m.hard_iron) && all_sigmas_ok(m.hard_iron_sigma) &&
          all_sigmas_ok(m.soft_iron_sigma) && meets(m.field_ut, kPositive) &&
          meets(m.fit_error_pct, kNonNegative) && meets(m.coverage, kFraction) &&
@@ -441,8 +440,8 @@ bool temperature_model_ok(const TemperatureModel<float>& t, std::uint16_t parts)
   const bool a = succeeded(t.accel.status), g = succeeded(t.gyro.status);
   return (t.order == 1 || t.order == 2) && (a || g) && (!a || (parts & kRecordAccel)) &&
          (!g || (parts & kRecordGyro)) && t.rests >= 1 && t.rests <= 0xFFFF &&
-         std::isfinite(t.reference_c) && std::isfinite(t.min_c) && std::isfinite(t.max_c) &&
-         (!a || temperature_bias_ok(t.accel, t.order)) &&
+         bounds::is_finite(t.reference_c) && bounds::is_finite(t.min_c) &&
+         bounds::is_finite(t.max_c) && (!a || temperature_bias_ok(t.accel, t.order)) &&
          (!g || temperature_bias_ok(t.gyro, t.order));
 }
 bool record_ok(const CalibrationRecord& r) {
@@ -507,7 +506,7 @@ template <typename Scalar, class V>
 bool to_float(const V& in, Eigen::Matrix<float, V::RowsAtCompileTime, 1>& out) {
   for (int i = 0; i < in.size(); ++i) {
     out(i) = static_cast<float>(in(i));
-    if (!std::isfinite(out(i))) return false;
+    if (!bounds::is_finite(out(i))) return false;
   }
   return true;
 }
@@ -589,11 +588,54 @@ Status fail(Status s, std::size_t offset, std::size_t* error_offset) {
 
 }  // namespace
 
-CalibrationRecord::CalibrationRecord() = default;
 // A record is its bytes: standard layout, every member a number, an enum or a fixed-size Eigen
-// matrix of floats (the codec's tables read and write them through their offsets), so a copy is
-// one memcpy instead of member-wise code for some 160 fields.
-CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) {
+// matrix of floats (the codec's tables read and write them through their offsets). So its
+// defaults are zeros but for the few set below, and a copy is one memcpy, instead of member-wise
+// code for some 160 fields. test_record.cpp holds the defaults to the members' own initialisers
+// (Record.DefaultsAreTheMembersOwn): a new member whose default is not zero fails it.
+CalibrationRecord::CalibrationRecord(Blank)
+    : calibration{{AccelVector<float>(), AccelVector<float>()},
+                  {GyroVector<float>(), GyroVector<float>()}},
+      mag{Status::kNotStarted,
+          Matrix3<float>(),
+          Vector3<float>(),
+          Vector3<float>(),
+          MagSymVector<float>(),
+          0.0f,
+          0.0f,
+          0.0f,
+          0,
+          0,
+          Quality::kNone,
+          Status::kNotStarted,
+          0.0f,
+          0.0f,
+          Vector3<float>(),
+          Vector3<float>()},
+      temperature{1,
+                  0.0f,
+                  0.0f,
+                  0.0f,
+                  0,
+                  {Vector3<float>(), Vector3<float>(), Vector3<float>(), Vector3<float>(),
+                   Vector3<float>(), Vector3<float>()},
+                  {Vector3<float>(), Vector3<float>(), Vector3<float>(), Vector3<float>(),
+                   Vector3<float>(), Vector3<float>()}} {}
+// The member initialisers' values (record.hpp, calibration.hpp, mag_model.hpp,
+// temperature_model.hpp): every one zero (0, false, Quality::kNone, a zero matrix) but these.
+CalibrationRecord::CalibrationRecord() : CalibrationRecord(Blank{}) {
+  std::memset(static_cast<void*>(this), 0, sizeof *this);
+  version = kRecordVersion;
+  calibration.accel.status = Status::kNotStarted;
+  calibration.gyro.status = Status::kNotStarted;
+  mag.status = Status::kNotStarted;
+  for (int i = 0; i < 3; ++i) mag.soft_iron(i, i) = 1.0f;
+  mag.alignment_status = Status::kNotStarted;
+  temperature.order = 1;
+  temperature.accel.status = Status::kNotStarted;
+  temperature.gyro.status = Status::kNotStarted;
+}
+CalibrationRecord::CalibrationRecord(const CalibrationRecord& other) : CalibrationRecord(Blank{}) {
   std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), sizeof other);
 }
 CalibrationRecord& CalibrationRecord::operator=(const CalibrationRecord& other) {
@@ -805,7 +847,9 @@ Status decode_record(const std::uint8_t* data, std::size_t size, CalibrationReco
         in.fields(kModelFields, &t);
         int count = 0;
         const Field* fields = bias_fields(t.order, &count);
-        Bias ignored;  // the coefficients of a sensor not in the record: read, checked, left out
+        // The coefficients of a sensor not in the record: read, checked, left out (so unset).
+        Bias ignored{Vector3<float>(), Vector3<float>(), Vector3<float>(),
+                     Vector3<float>(), Vector3<float>(), Vector3<float>()};
         Bias* const biases[2] = {&t.accel, &t.gyro};
         for (unsigned k = 0; k < 2; ++k) {
           const bool usable = (in.model_flags() & parts & (1u << k)) != 0;

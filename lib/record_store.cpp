@@ -68,8 +68,9 @@ void RecordStore::note_sequence(const Read& r) {
   sequence_seen_ = true;
 }
 
-// One read of a slot: the commit, the record it names, then (with_seal) the seal after it.
-RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord* out, bool with_seal) {
+// One read of a slot: the commit, the record it names (decoded into `record` if valid; unchanged
+// otherwise), then the seal after it.
+RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord& record) {
   const FlashGeometry g = flash_.geometry();
   const std::uint32_t base = slot_offset(slot);
   Read r;
@@ -102,12 +103,9 @@ RecordStore::Read RecordStore::read_once(int slot, CalibrationRecord* out, bool 
     r.status = Status::kRecordBadChecksum;
     return r;
   }
-  CalibrationRecord decoded;
-  r.status = decode_record(buf_, length, decoded);
+  r.status = decode_record(buf_, length, record);
   if (r.status != Status::kOk) return r;
   r.kind = Kind::kValid;
-  if (out != nullptr) *out = decoded;
-  if (!with_seal) return r;
   std::uint8_t seal[kSealBytes];
   if (flash_.read(at + round_up(length, g.program_unit), seal, kSealBytes) == Status::kOk &&
       seal_matches(seal, load_u32(commit + 16)))
@@ -124,7 +122,7 @@ RecordStore::View RecordStore::scan(int slot, CalibrationRecord* out) {
   bool readable = false;
   Status last = Status::kStorageError;  // what the last read that read anything found
   for (int k = 0; k < kReadAttempts && v.rank != Rank::kSealed; ++k) {
-    const Read r = read_once(slot, &record, true);
+    const Read r = read_once(slot, record);
     note_sequence(r);
     if (r.kind == Kind::kUnreadable) continue;
     readable = true;
@@ -155,9 +153,12 @@ Status RecordStore::load(CalibrationRecord& out) {
 
 Status RecordStore::load_locked(CalibrationRecord& out) {
   if (check_geometry() != Status::kOk) return Status::kInvalidArgument;
-  CalibrationRecord records[2];
+  // Slot 1's record goes straight to `out`: only a valid one is written there, and with one the
+  // load succeeds (with it, or with slot 0's if that is newer).
+  CalibrationRecord record0;
   View v[2];
-  for (int k = 0; k < 2; ++k) v[k] = scan(k, &records[k]);
+  v[0] = scan(0, &record0);
+  v[1] = scan(1, &out);
   // The newest sealed record; failing that, the newest whose save did not finish.
   int newest = -1;
   for (const Rank want : {Rank::kSealed, Rank::kValid}) {
@@ -168,7 +169,7 @@ Status RecordStore::load_locked(CalibrationRecord& out) {
   if (newest < 0)
     return v[0].rank == Rank::kUnreadable || v[1].rank == Rank::kUnreadable ? Status::kStorageError
                                                                             : Status::kNoRecord;
-  out = records[newest];
+  if (newest == 0) out = record0;
   return Status::kOk;
 }
 
@@ -269,8 +270,9 @@ Status RecordStore::save_locked(const CalibrationRecord& record) {
   // Read back until one read finds the commit, the record it names and the seal (a burst of
   // misreads passes).
   bool readable = false, sealed = false;
+  CalibrationRecord back_record;
   for (int k = 0; k < kReadAttempts && !sealed; ++k) {
-    const Read back = read_once(target, nullptr, true);
+    const Read back = read_once(target, back_record);
     note_sequence(back);
     readable = readable || back.kind != Kind::kUnreadable;
     sealed = back.kind == Kind::kSealed && back.sequence == seq && back.record_crc == record_crc;

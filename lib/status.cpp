@@ -11,16 +11,16 @@ namespace imucal {
 #if !IMUCAL_STATUS_STRINGS
 namespace {
 
-// "0" to "99", each in 3 characters with its terminator.
+// "10" to "99", each in 3 characters with its terminator. The last two characters of "1d" are
+// the string "d".
 struct Numbers {
-  char text[100][3];
+  char text[90][3];
 };
 constexpr Numbers numbers() {
   Numbers n{};
-  for (int i = 0; i < 100; ++i) {
-    const int tens = i / 10;
-    n.text[i][0] = static_cast<char>('0' + (tens > 0 ? tens : i % 10));
-    n.text[i][1] = static_cast<char>(tens > 0 ? '0' + i % 10 : '\0');
+  for (int i = 10; i < 100; ++i) {
+    n.text[i - 10][0] = static_cast<char>('0' + i / 10);
+    n.text[i - 10][1] = static_cast<char>('0' + i % 10);
   }
   return n;
 }
@@ -30,7 +30,8 @@ constexpr Numbers kNumbers = numbers();
 
 const char* to_string(Status s) {
   const unsigned i = static_cast<unsigned>(s);
-  return i < 100 ? kNumbers.text[i] : "unknown status";
+  if (i < 10) return kNumbers.text[i] + 1;
+  return i < 100 ? kNumbers.text[i - 10] : "unknown status";
 }
 #else
 const char* to_string(Status s) {

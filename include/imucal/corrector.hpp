@@ -32,7 +32,9 @@
 
 #include <Eigen/Core>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <type_traits>
 
 #include "imucal/models/accel_model.hpp"
@@ -51,16 +53,12 @@ class Corrector {
  public:
   Corrector() { clear(); }
 
-  // Both sensors pass through unchanged.
+  // Both sensors pass through unchanged: every member zero (Bound::kNone too) but the matrices'
+  // diagonals.
   void clear() {
-    for (int k = 0; k < kSensors; ++k) {
-      m_[k].setIdentity();
-      c_[k].setZero();
-    }
-    model_ = Model{};
-    temperature_c_ = Scalar(0);
-    parts_ = 0;
-    bound_ = Bound::kNone;
+    std::memset(static_cast<void*>(this), 0, bytes());
+    for (int k = 0; k < kSensors; ++k)
+      for (int i = 0; i < 3; ++i) m_[k](i, i) = Scalar(1);
   }
 
   // Loads the usable parts (succeeded status); the others pass through. kOk if at least one part
@@ -81,7 +79,7 @@ class Corrector {
     if (g &&
         !load(gyro_matrix<From>(c.gyro.params), c.gyro.params.data() + kGyroBiasX, next, kGyro))
       return refuse(Bound::kNonFinite);
-    *this = next;
+    copy_from(next);
     return Status::kOk;
   }
   // Everything a record holds: accelerometer, gyro, magnetometer, temperature model, all checked
@@ -99,7 +97,7 @@ class Corrector {
       bound_ = next.bound_;
       return s;
     }
-    *this = next;
+    copy_from(next);
     return Status::kOk;
   }
 
@@ -137,7 +135,7 @@ class Corrector {
     }
     const Bound b = model_bound(t, next, a ? &m_[kAccel] : nullptr, g ? &m_[kGyro] : nullptr);
     if (b != Bound::kNone) return refuse(b);
-    Vector3<Scalar> c[kTemperatureSensors];
+    Offsets c;
     Scalar at = next.reference;
     const Bound offset = offsets(next, at, c);
     if (offset != Bound::kNone) return refuse(offset);
@@ -152,8 +150,8 @@ class Corrector {
   // non-finite offset (kImplausible, the previous biases kept).
   Status set_temperature(Scalar t) {
     if (!(parts_ & kRecordTemperature)) return Status::kNotStarted;
-    if (!all_finite(t)) return Status::kNonFiniteInput;
-    Vector3<Scalar> c[kTemperatureSensors];
+    if (!bounds::is_finite(t)) return Status::kNonFiniteInput;
+    Offsets c;
     const Bound offset = offsets(model_, t, c);
     if (offset != Bound::kNone) return refuse(offset);
     commit(c, t);
@@ -211,6 +209,15 @@ class Corrector {
     Scalar reference, min, max;           // T0 and the range fitted (deg C)
     std::uint8_t sensors;                 // bit k: sensor k's biases follow the temperature
   };
+  using Offsets = Scalar[kTemperatureSensors][3];  // c of the sensors with a temperature model
+
+  // A corrector is its bytes (numbers, enums and fixed-size Eigen matrices): copied with one
+  // memcpy, not member-wise code. The bytes up to its last member (a derived class's members may
+  // live in the padding after it).
+  static constexpr std::size_t bytes() { return offsetof(Corrector, bound_) + sizeof(Bound); }
+  void copy_from(const Corrector& other) {
+    std::memcpy(static_cast<void*>(this), static_cast<const void*>(&other), bytes());
+  }
 
   Status refuse(Bound b) {
     bound_ = b;
@@ -223,10 +230,14 @@ class Corrector {
   template <typename From>
   static bool load(const Matrix3<From>& m_in, const From* b, Corrector& to, int k) {
     const Matrix3<Scalar> m = m_in.template cast<Scalar>();
-    const Vector3<Scalar> c = (m_in * Eigen::Map<const Vector3<From>>(b)).template cast<Scalar>();
-    if (!bounds::finite(m.data(), 9) || !bounds::finite(c.data(), 3)) return false;
-    to.m_[k] = m;
-    to.c_[k] = c;
+    From mb[3];
+    bounds::product(m_in, b, mb);
+    Scalar c[3];
+    for (int i = 0; i < 3; ++i) c[i] = static_cast<Scalar>(mb[i]);
+    if (!bounds::finite(m.data(), 9) || !bounds::finite(c, 3)) return false;
+    // Element by element: Eigen's assignment is out-of-line code at -Os.
+    for (int i = 0; i < 9; ++i) to.m_[k](i) = m(i);
+    for (int i = 0; i < 3; ++i) to.c_[k](i) = c[i];
     to.parts_ = static_cast<std::uint16_t>(to.parts_ | (1u << k));
     return true;
   }
@@ -259,23 +270,24 @@ class Corrector {
   // The offsets c = M b(t) of the sensors whose biases follow the model (the others keep theirs),
   // t clamped to the model's range (not extrapolated); kAccelOffset or kGyroOffset for one that
   // is not finite.
-  Bound offsets(const Model& model, Scalar& t, Vector3<Scalar> c[kTemperatureSensors]) const {
-    t = t < model.min ? model.min : (t > model.max ? model.max : t);
-    const Scalar d = t - model.reference;
+  Bound offsets(const Model& model, Scalar& t, Offsets& c) const {
+    t = !bounds::at_most(model.min, t) ? model.min
+                                       : (!bounds::at_most(t, model.max) ? model.max : t);
+    const Scalar d = t + bounds::negated(model.reference);
     for (int k = 0; k < kTemperatureSensors; ++k) {
-      c[k] = c_[k];
+      for (int i = 0; i < 3; ++i) c[k][i] = c_[k](i);
       if (!(model.sensors & (1u << k))) continue;
       const Scalar(&b)[3][3] = model.b[k];
-      Vector3<Scalar> v;
-      for (int i = 0; i < 3; ++i) v(i) = b[0][i] + d * (b[1][i] + d * b[2][i]);
-      c[k].noalias() = m_[k] * v;
-      if (!bounds::finite(c[k].data(), 3))
-        return k == kAccel ? Bound::kAccelOffset : Bound::kGyroOffset;
+      Scalar v[3];
+      for (int i = 0; i < 3; ++i) v[i] = b[0][i] + d * (b[1][i] + d * b[2][i]);
+      bounds::product(m_[k], v, c[k]);
+      if (!bounds::finite(c[k], 3)) return k == kAccel ? Bound::kAccelOffset : Bound::kGyroOffset;
     }
     return Bound::kNone;
   }
-  void commit(const Vector3<Scalar> c[kTemperatureSensors], Scalar t) {
-    for (int k = 0; k < kTemperatureSensors; ++k) c_[k] = c[k];
+  void commit(const Offsets& c, Scalar t) {
+    for (int k = 0; k < kTemperatureSensors; ++k)
+      for (int i = 0; i < 3; ++i) c_[k](i) = c[k][i];
     temperature_c_ = t;
   }
 

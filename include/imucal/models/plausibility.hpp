@@ -22,8 +22,10 @@
 // Header-only, templated on the scalar; never allocates.
 #pragma once
 
-#include <Eigen/LU>  // determinant()
+#include <Eigen/LU>  // determinant() for the files that include this header
 #include <cstdint>
+#include <cstring>
+#include <type_traits>
 
 #include "imucal/models/accel_model.hpp"
 #include "imucal/models/gyro_model.hpp"
@@ -97,29 +99,142 @@ constexpr double kMaxSoftIron = 1.0e3, kMaxMagOffset = 1.0e5, kMaxFieldUt = 1.0e
 constexpr double kMaxAccelSlope = 1.0, kMaxAccelCurvature = 0.01;
 constexpr double kMaxGyroSlope = 0.1, kMaxGyroCurvature = 1.0e-3;
 
+// Compares of a float done on its bits, as integer compares: on a core without an FPU a float
+// compare is a runtime call (and its routines 0.5 KB of flash), an integer compare is not. Each
+// gives the float compare's result, NaN included; a double is compared as a double.
+inline std::uint32_t bits_of(float x) {
+  std::uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+// |x|'s bits: they order as |x| does, NaN above infinity.
+inline std::uint32_t magnitude_bits(float x) { return bits_of(x) & 0x7FFFFFFFu; }
+// x's bits as an integer that orders as x does (-0 and +0 both 0); a NaN beyond the infinity of
+// its sign.
+inline std::int32_t order_bits(float x) {
+  const std::uint32_t b = bits_of(x);
+  const std::int32_t m = static_cast<std::int32_t>(b & 0x7FFFFFFFu);
+  return (b >> 31) != 0u ? -m : m;
+}
+
+// x finite (not NaN, not infinite).
+template <typename Scalar>
+bool is_finite(Scalar x) {
+  if constexpr (std::is_same<Scalar, float>::value)
+    return magnitude_bits(x) < 0x7F800000u;
+  else
+    return all_finite(x);
+}
+// lo <= x <= hi (lo and hi not NaN), false for NaN.
+template <typename Scalar>
+bool in_range(Scalar x, Scalar lo, Scalar hi) {
+  if constexpr (std::is_same<Scalar, float>::value) {
+    const std::int32_t k = order_bits(x);
+    return k >= order_bits(lo) && k <= order_bits(hi);
+  } else {
+    return x >= lo && x <= hi;
+  }
+}
+// x > 0, false for NaN.
+template <typename Scalar>
+bool positive(Scalar x) {
+  if constexpr (std::is_same<Scalar, float>::value)
+    return bits_of(x) - 1u < 0x7F800000u;  // +0 wraps to the top
+  else
+    return x > Scalar(0);
+}
+// a <= b (neither NaN).
+template <typename Scalar>
+bool at_most(Scalar a, Scalar b) {
+  if constexpr (std::is_same<Scalar, float>::value)
+    return order_bits(a) <= order_bits(b);
+  else
+    return a <= b;
+}
+// |x| <= limit (limit >= 0), false for NaN.
+template <typename Scalar>
+bool abs_at_most(Scalar x, Scalar limit) {
+  if constexpr (std::is_same<Scalar, float>::value)
+    return magnitude_bits(x) <= magnitude_bits(limit);
+  else
+    return x <= limit && x >= -limit;
+}
+
+// Whether the scalar's arithmetic is runtime calls (a float on a core without an FPU). There the
+// written-out forms below replace Eigen's (out-of-line code, its loops and its assignments) and
+// round as Eigen's: the same operations in the same order, and no multiply-add is fused without
+// an FPU. Elsewhere they are Eigen's.
+template <typename Scalar>
+constexpr bool soft_float() {
+  return std::is_same<Scalar, float>::value && !detail::hardware_float<float>();
+}
+
+// -x; a soft float by its sign bit: a + negated(b) is a - b, bit for bit, and a program that
+// subtracts only so links one of the runtime's two add routines (0.8 KB each on the M0+).
+template <typename Scalar>
+Scalar negated(Scalar x) {
+  if constexpr (soft_float<Scalar>()) {
+    const std::uint32_t b = bits_of(x) ^ 0x80000000u;
+    float y;
+    std::memcpy(&y, &b, sizeof y);
+    return y;
+  } else {
+    return -x;
+  }
+}
+// det m, as Eigen's determinant() computes it.
+template <typename Scalar>
+Scalar determinant(const Matrix3<Scalar>& m) {
+  if constexpr (soft_float<Scalar>()) {
+    const auto cofactor = [&m](int a, int b, int c) {
+      return m(0, a) * (m(1, b) * m(2, c) + negated(m(1, c) * m(2, b)));
+    };
+    return cofactor(0, 1, 2) + negated(cofactor(1, 0, 2)) + cofactor(2, 0, 1);
+  } else {
+    return m.determinant();
+  }
+}
+// out = m v (v, out: 3 values each, apart), as Eigen's product computes it.
+template <typename Scalar>
+void product(const Matrix3<Scalar>& m, const Scalar* v, Scalar* out) {
+  if constexpr (soft_float<Scalar>()) {
+    for (int i = 0; i < 3; ++i) out[i] = m(i, 0) * v[0] + (m(i, 1) * v[1] + m(i, 2) * v[2]);
+  } else {
+    Eigen::Map<Vector3<Scalar>>(out).noalias() = m * Eigen::Map<const Vector3<Scalar>>(v);
+  }
+}
+
 // |x| <= limit, false for NaN (comparisons with NaN are false).
 template <typename Scalar>
 bool within(Scalar x, double limit) {
-  return x <= static_cast<Scalar>(limit) && x >= -static_cast<Scalar>(limit);
+  return abs_at_most(x, static_cast<Scalar>(limit));
 }
 template <typename Scalar>
 bool magnitude_in(Scalar x, double lo, double hi) {
-  const Scalar a = x < Scalar(0) ? -x : x;
-  return a >= static_cast<Scalar>(lo) && a <= static_cast<Scalar>(hi);
+  if constexpr (std::is_same<Scalar, float>::value) {
+    const std::uint32_t a = magnitude_bits(x);
+    return a >= bits_of(static_cast<float>(lo)) && a <= bits_of(static_cast<float>(hi));
+  } else {
+    const Scalar a = x < Scalar(0) ? -x : x;
+    return a >= static_cast<Scalar>(lo) && a <= static_cast<Scalar>(hi);
+  }
 }
 // Every one of v[0, n) finite: one function for every length.
 template <typename Scalar>
 bool finite(const Scalar* v, int n) {
-  return all_finite(Eigen::Map<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>(v, n));
+  for (int i = 0; i < n; ++i)
+    if (!is_finite(v[i])) return false;
+  return true;
 }
 // |(m v)_i| <= limit for each row i (v: 3 values), false for NaN. The limit is converted where it
 // is a constant, not in the call: at -Os the call is not inlined, and a double argument would be
 // converted at run time (soft double on a single-precision FPU).
 template <typename Scalar>
 bool product_within(const Matrix3<Scalar>& m, const Scalar* v, Scalar limit) {
-  const Vector3<Scalar> x = m * Eigen::Map<const Vector3<Scalar>>(v);
+  Scalar x[3];
+  product(m, v, x);
   for (int i = 0; i < 3; ++i)
-    if (!(x(i) <= limit && x(i) >= -limit)) return false;
+    if (!abs_at_most(x[i], limit)) return false;
   return true;
 }
 
@@ -127,8 +242,8 @@ bool product_within(const Matrix3<Scalar>& m, const Scalar* v, Scalar limit) {
 
 template <typename Scalar>
 bool temperature_plausible(Scalar t) {
-  return t >= static_cast<Scalar>(bounds::kMinTemperatureC) &&
-         t <= static_cast<Scalar>(bounds::kMaxTemperatureC);
+  return bounds::in_range(t, static_cast<Scalar>(bounds::kMinTemperatureC),
+                          static_cast<Scalar>(bounds::kMaxTemperatureC));
 }
 
 // The accelerometer's nine parameters (accel_model.hpp).
@@ -136,8 +251,8 @@ template <typename Scalar>
 Bound accel_bound(const AccelVector<Scalar>& p) {
   if (!bounds::finite(p.data(), kAccelParams)) return Bound::kNonFinite;
   for (int i = kScaleX; i <= kScaleZ; ++i)
-    if (!(p(i) >= static_cast<Scalar>(bounds::kMinAccelScale) &&
-          p(i) <= static_cast<Scalar>(bounds::kMaxAccelScale)))
+    if (!bounds::in_range(p(i), static_cast<Scalar>(bounds::kMinAccelScale),
+                          static_cast<Scalar>(bounds::kMaxAccelScale)))
       return Bound::kAccelScale;
   for (int i = kAlphaYz; i <= kAlphaZx; ++i)
     if (!bounds::within(p(i), bounds::kMaxMisalignment)) return Bound::kAccelMisalignment;
@@ -165,14 +280,15 @@ Bound gyro_bound(const GyroVector<Scalar>& p) {
 // The magnetometer's soft iron S (uT per raw unit), hard iron h (raw units) and field (uT).
 template <typename Scalar>
 Bound mag_bound(const Matrix3<Scalar>& s, const Vector3<Scalar>& h, Scalar field_ut) {
-  if (!bounds::finite(s.data(), 9) || !bounds::finite(h.data(), 3) || !all_finite(field_ut))
+  if (!bounds::finite(s.data(), 9) || !bounds::finite(h.data(), 3) || !bounds::is_finite(field_ut))
     return Bound::kNonFinite;
   for (int i = 0; i < 9; ++i)
     if (!bounds::within(s(i), bounds::kMaxSoftIron)) return Bound::kMagSoftIron;
-  if (!(s.determinant() > Scalar(0))) return Bound::kMagSoftIron;
+  if (!bounds::positive(bounds::determinant(s))) return Bound::kMagSoftIron;
   if (!bounds::product_within(s, h.data(), static_cast<Scalar>(bounds::kMaxMagOffset)))
     return Bound::kMagOffset;
-  if (!(field_ut > Scalar(0) && field_ut <= static_cast<Scalar>(bounds::kMaxFieldUt)))
+  if (!bounds::positive(field_ut) ||
+      !bounds::abs_at_most(field_ut, static_cast<Scalar>(bounds::kMaxFieldUt)))
     return Bound::kMagField;
   return Bound::kNone;
 }
@@ -203,10 +319,11 @@ Bound temperature_bias_bound(const TemperatureBias<Scalar>& b, const Matrix3<Sca
 template <typename Scalar>
 Bound temperature_model_bound(const TemperatureModel<Scalar>& t, const Matrix3<Scalar>* accel_m,
                               const Matrix3<Scalar>* gyro_m) {
-  if (!all_finite(t.reference_c) || !all_finite(t.min_c) || !all_finite(t.max_c))
+  if (!bounds::is_finite(t.reference_c) || !bounds::is_finite(t.min_c) ||
+      !bounds::is_finite(t.max_c))
     return Bound::kNonFinite;
   if (!temperature_plausible(t.reference_c) || !temperature_plausible(t.min_c) ||
-      !temperature_plausible(t.max_c) || !(t.min_c <= t.max_c))
+      !temperature_plausible(t.max_c) || !bounds::at_most(t.min_c, t.max_c))
     return Bound::kTemperature;
   if (accel_m != nullptr && succeeded(t.accel.status)) {
     const Bound b = temperature_bias_bound(t.accel, *accel_m, true);

@@ -89,6 +89,12 @@ struct CalibrationRecord {
   MagCalibration<float> mag{};            // iff parts & kRecordMag
   TemperatureModel<float> temperature{};  // iff parts & kRecordTemperature
   int unknown_sections = 0;               // decode only: sections of a newer format, skipped
+
+ private:
+  // The members' Eigen matrices left unset (their own constructor does not set them): the public
+  // constructors write every byte after it.
+  struct Blank {};
+  explicit CalibrationRecord(Blank);
 };
 
 // The record of a calibration: its usable parts (succeeded status, finite values) and quality,

@@ -120,7 +120,7 @@ class RecordStore {
   };
 
   Status check_geometry(const FlashGeometry& g) const;
-  Read read_once(int slot, CalibrationRecord* out, bool with_seal);
+  Read read_once(int slot, CalibrationRecord& record);
   View scan(int slot, CalibrationRecord* out);
   static int choose_target(const View v[2]);
   void note_sequence(const Read& r);
