@@ -39,12 +39,17 @@ inline bool all_finite(float x) { return std::isfinite(x); }
 inline bool all_finite(double x) { return std::isfinite(x); }
 
 namespace detail {
-// NaN by its bits: on a core without an FPU, a compare of floats is a runtime call, this is not.
-inline bool is_nan(float x) {
+// A float's bits: compares on them are integer compares (on a core without an FPU a compare of
+// floats is a runtime call).
+inline std::uint32_t bits_of(float x) {
   std::uint32_t b;
   std::memcpy(&b, &x, sizeof b);
-  return (b & 0x7FFFFFFFu) > 0x7F800000u;
+  return b;
 }
+// NaN by its bits.
+inline bool is_nan(float x) { return (bits_of(x) & 0x7FFFFFFFu) > 0x7F800000u; }
+// Finite (neither NaN nor infinite) by its bits.
+inline bool is_finite(float x) { return (bits_of(x) & 0x7FFFFFFFu) < 0x7F800000u; }
 inline bool is_nan(double x) {
   std::uint64_t b;
   std::memcpy(&b, &x, sizeof b);

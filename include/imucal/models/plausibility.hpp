@@ -99,14 +99,10 @@ constexpr double kMaxSoftIron = 1.0e3, kMaxMagOffset = 1.0e5, kMaxFieldUt = 1.0e
 constexpr double kMaxAccelSlope = 1.0, kMaxAccelCurvature = 0.01;
 constexpr double kMaxGyroSlope = 0.1, kMaxGyroCurvature = 1.0e-3;
 
-// Compares of a float done on its bits, as integer compares: on a core without an FPU a float
-// compare is a runtime call (and its routines 0.5 KB of flash), an integer compare is not. Each
-// gives the float compare's result, NaN included; a double is compared as a double.
-inline std::uint32_t bits_of(float x) {
-  std::uint32_t b;
-  std::memcpy(&b, &x, sizeof b);
-  return b;
-}
+// Compares of a float done on its bits (detail::bits_of), as integer compares: on a core without
+// an FPU a float compare is a runtime call (and its routines 0.5 KB of flash), an integer compare
+// is not. Each gives the float compare's result, NaN included; a double is compared as a double.
+using detail::bits_of;
 // |x|'s bits: they order as |x| does, NaN above infinity.
 inline std::uint32_t magnitude_bits(float x) { return bits_of(x) & 0x7FFFFFFFu; }
 // x's bits as an integer that orders as x does (-0 and +0 both 0); a NaN beyond the infinity of
@@ -121,7 +117,7 @@ inline std::int32_t order_bits(float x) {
 template <typename Scalar>
 bool is_finite(Scalar x) {
   if constexpr (std::is_same<Scalar, float>::value)
-    return magnitude_bits(x) < 0x7F800000u;
+    return detail::is_finite(x);
   else
     return all_finite(x);
 }
