@@ -24,7 +24,7 @@ PARTS = [
      r"MagField|mag_prior|save_field|resume_field)(?!\w)"),
     ("streaming calibrator: stream checks, initial rest, stillness, blocks, moves, poses",
      r"^imucal::(Calibrator|InitialRestWindow|PoseCollection|PoseStore|MoveStore|SampleBlock|"
-     r"Segmenter|RawSubBlock|FloatSubBlock|SubBlockStats|StreamChecks|RestSummary|"
+     r"Segmenter|SubBlock|detail::RawSums|detail::FloatSums|SubBlockStats|StreamChecks|RestSummary|"
      r"DelayLine|GyroSegment|FullScale|RateWatch|ClockResetWatch|StillnessDetector|"
      r"TemperatureMean|SolveSequence|judge_quality|coverage_hint|set_coverage|split_rest_rotation|"
      r"compensated_add)(?!\w)"),

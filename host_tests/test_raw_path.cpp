@@ -56,7 +56,7 @@ ImuSample<Scalar> sample_of(const RawFrame& f) {
 // rounding (the integer sums are exact; alpha, beta and gamma from the mean interval are exact
 // here, the steps being equal), and the same state. The still spell's rotation is first order in
 // both.
-TEST(RawSubBlock, SumsEqualTheFloatAccumulatorsOnTheSameCounts) {
+TEST(SubBlock, CountsGiveTheSumsOfTheSameReadings) {
   SubBlockLimits<double> l;
   l.acc_ref = Vector3<double>(120.4, -35.2, 4095.7);
   l.gyro_bias = Vector3<double>(-12.3, 7.6, 0.45);
@@ -67,8 +67,8 @@ TEST(RawSubBlock, SumsEqualTheFloatAccumulatorsOnTheSameCounts) {
   l.weight = 0.01 / 0.11;
   sim::Random rng(17);
   for (int spell = 0; spell < 2; ++spell) {
-    RawSubBlock<double> raw;
-    FloatSubBlock<double> flt;
+    SubBlock<double> raw;
+    SubBlock<double> flt;
     raw.start(l);
     flt.start(l);
     raw.set_averages(l.acc_ref, 30.0, spell == 0 ? 100.0 : 1e6);

@@ -205,20 +205,20 @@ void glitch_leaves_no_trace(const MakeInput& input) {
 }
 
 TEST(StillnessDetector, GlitchLeavesNoTraceFloat) {
-  glitch_leaves_no_trace<float, FloatSubBlock<float>>(
-      [](FloatSubBlock<float>& acc, const Vector3<double>& a, const Vector3<double>& u,
-         std::uint32_t t, bool saturated) {
-        ImuSample<float> s;
-        s.t_us = t;
-        s.acc = a.cast<float>();
-        s.gyro = u.cast<float>();
-        return acc.add(s, 10000u, saturated);
-      });
+  glitch_leaves_no_trace<float, SubBlock<float>>([](SubBlock<float>& acc, const Vector3<double>& a,
+                                                    const Vector3<double>& u, std::uint32_t t,
+                                                    bool saturated) {
+    ImuSample<float> s;
+    s.t_us = t;
+    s.acc = a.cast<float>();
+    s.gyro = u.cast<float>();
+    return acc.add(s, 10000u, saturated);
+  });
 }
 TEST(StillnessDetector, GlitchLeavesNoTraceDouble) {
-  glitch_leaves_no_trace<double, FloatSubBlock<double>>(
-      [](FloatSubBlock<double>& acc, const Vector3<double>& a, const Vector3<double>& u,
-         std::uint32_t t, bool saturated) {
+  glitch_leaves_no_trace<double, SubBlock<double>>(
+      [](SubBlock<double>& acc, const Vector3<double>& a, const Vector3<double>& u, std::uint32_t t,
+         bool saturated) {
         ImuSample<double> s;
         s.t_us = t;
         s.acc = a;
@@ -228,17 +228,17 @@ TEST(StillnessDetector, GlitchLeavesNoTraceDouble) {
 }
 TEST(StillnessDetector, GlitchLeavesNoTraceCounts) {
   // Counts: the readings scaled so that 2 units of noise are 20 counts (the limits alike).
-  glitch_leaves_no_trace<float, RawSubBlock<float>>(
-      [](RawSubBlock<float>& acc, const Vector3<double>& a, const Vector3<double>& u,
-         std::uint32_t t, bool saturated) {
-        RawFrame f;
-        f.t_us = t;
-        for (int i = 0; i < 3; ++i) {
-          f.acc[i] = static_cast<std::int16_t>(std::lround(a(i)));
-          f.gyro[i] = static_cast<std::int16_t>(std::lround(u(i)));
-        }
-        return acc.add(f, 10000u, saturated);
-      });
+  glitch_leaves_no_trace<float, SubBlock<float>>([](SubBlock<float>& acc, const Vector3<double>& a,
+                                                    const Vector3<double>& u, std::uint32_t t,
+                                                    bool saturated) {
+    RawFrame f;
+    f.t_us = t;
+    for (int i = 0; i < 3; ++i) {
+      f.acc[i] = static_cast<std::int16_t>(std::lround(a(i)));
+      f.gyro[i] = static_cast<std::int16_t>(std::lround(u(i)));
+    }
+    return acc.add(f, 10000u, saturated);
+  });
 }
 
 }  // namespace

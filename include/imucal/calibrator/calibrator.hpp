@@ -311,7 +311,7 @@ class Calibrator {
       }
       return initial_rest_sample(s, c.dt(), result);
     }
-    if (!segmenter_.add_raw(f, c, *this)) return checks_.refuse_glitch();
+    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch();
     checks_.accept(f);
     if (pose_store_full_reported_ && result == Status::kOk) {
       pose_store_full_reported_ = false;

@@ -172,7 +172,7 @@ class RestMonitor {
     if (!started_)
       start(Vector3<Scalar>(static_cast<Scalar>(f.acc[0]), static_cast<Scalar>(f.acc[1]),
                             static_cast<Scalar>(f.acc[2])));
-    if (!segmenter_.add_raw(f, c, *this)) return checks_.refuse_glitch();
+    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch();
     checks_.accept(f);
     return result;
   }

@@ -78,11 +78,10 @@ class Segmenter {
     max_rest_seconds_ = s.max_rest_seconds;
     accel_shift_max2_ = s.accel_shift_max * s.accel_shift_max;
     clear();
-    raw_mode_ = false;
+    sub_.forget_kind();
     mean_follows_ = false;
     open_sub_block();
-    raw_.forget_rate();
-    float_.forget_rate();
+    sub_.forget_rate();
   }
 
   // Starts the detector from a still period: the accelerometer's mean (raw) and per-axis
@@ -103,11 +102,9 @@ class Segmenter {
     mean_follows_ = false;
     detector_.start(stillness, acc_mean, acc_var, gyro_energy);
     detector_.set_glitch_limit(glitch_limit2);
-    open_sub_block(true);
-    raw_.forget_rate();
-    float_.forget_rate();
-    raw_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
-    float_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
+    open_sub_block();
+    sub_.forget_rate();
+    sub_.set_averages(acc_mean, detector_.start_accel(), detector_.start_energy());
   }
 
   // The bias added to every gyro reading. The blocks and the rest held so far are moved to it
@@ -126,40 +123,23 @@ class Segmenter {
     block_ = Block{};
   }
 
-  // One checked sample in the scalar type (c: what the front end made of it: the step after the
-  // previous one, 0 if the stream starts here; whether the accelerometer says nothing; the
-  // temperature). False: a glitch, nothing changed.
-  template <class Sink>
-  __attribute__((always_inline)) bool add(const ImuSample<Scalar>& s,
-                                          const CheckedSample<Scalar>& c, Sink& sink) {
-    if (!float_.add(s, c.step_us, c.acc_saturated)) return false;
-    if (c.has_temperature()) float_.add_temperature(c.temperature_q);
-    if (const SubBlockStats<Scalar>* done = float_.done()) {
+  // One checked sample: a reading in the scalar type or a frame of 16-bit counts (integer work
+  // only, but once a sub-block). c: what the front end made of it: the step after the previous
+  // one, 0 if the stream starts here; whether the accelerometer says nothing; the temperature.
+  // A stream is either readings or frames: one kind from start() on. False: a glitch, nothing
+  // changed.
+  template <class Input, class Sink>
+  __attribute__((always_inline)) bool add(const Input& x, const CheckedSample<Scalar>& c,
+                                          Sink& sink) {
+    if (!sub_.add(x, c.step_us, c.acc_saturated)) return false;
+    if (c.has_temperature()) sub_.add_temperature(c.temperature_q);
+    if (const SubBlockStats<Scalar>* done = sub_.done()) {
       sub_block_done(*done, sink);
-      float_.release_done();
+      sub_.release_done();
     }
-    if (float_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
-        s.t_us - float_.t_begin() >= sub_us_ ||
-        s.t_us - block_begin(float_.t_begin()) >= block_us_ || float_.energy_full())
-      close_sub_block(sink);
-    return true;
-  }
-
-  // One checked frame of 16-bit counts (integer work only, but once a sub-block); as add().
-  // A stream is either readings or frames: one kind from start() on.
-  template <class Sink>
-  __attribute__((always_inline)) bool add_raw(const RawFrame& f, const CheckedSample<Scalar>& c,
-                                              Sink& sink) {
-    raw_mode_ = true;
-    if (!raw_.add(f, c.step_us, c.acc_saturated)) return false;
-    if (c.has_temperature()) raw_.add_temperature(c.temperature_q);
-    if (const SubBlockStats<Scalar>* done = raw_.done()) {
-      sub_block_done(*done, sink);
-      raw_.release_done();
-    }
-    if (raw_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
-        f.t_us - raw_.t_begin() >= sub_us_ || f.t_us - block_begin(raw_.t_begin()) >= block_us_ ||
-        raw_.energy_full())
+    if (sub_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
+        x.t_us - sub_.t_begin() >= sub_us_ || x.t_us - block_begin(sub_.t_begin()) >= block_us_ ||
+        sub_.template energy_full<Input>())
       close_sub_block(sink);
     return true;
   }
@@ -167,8 +147,8 @@ class Segmenter {
   // The open sub-block goes through the detector into the blocks now (before a cut, at the end).
   template <class Sink>
   void close_sub_block(Sink& sink) {
-    if ((raw_mode_ ? raw_.size() : float_.size()) == 0) return;
-    sub_block_done(raw_mode_ ? raw_.finish() : float_.finish(), sink);
+    if (sub_.size() == 0) return;
+    sub_block_done(sub_.finish(), sink);
     open_sub_block();
   }
 
@@ -177,8 +157,7 @@ class Segmenter {
   template <class Sink>
   void cut(Sink& sink) {
     close_sub_block(sink);
-    raw_.forget_rate();
-    float_.forget_rate();
+    sub_.forget_rate();
     if (block_.still && block_.n > 0) {
       delay_.add(block_);
       block_.clear();
@@ -192,8 +171,7 @@ class Segmenter {
   void discard() {
     mean_follows_ = false;
     open_sub_block();  // what the open sub-block held goes too
-    raw_.forget_rate();
-    float_.forget_rate();
+    sub_.forget_rate();
     block_ = Block{};
     delay_.clear();
     rest_open_ = false;
@@ -239,7 +217,7 @@ class Segmenter {
   bool rest_open() const { return rest_open_; }
   const Block& rest() const { return rest_; }
   // Whether the latest sample was classified still.
-  bool still() const { return raw_mode_ ? raw_.still() : float_.still(); }
+  bool still() const { return sub_.still(); }
   const StillnessDetector<Scalar>& detector() const { return detector_; }
   const Vector3<Scalar>& gyro_bias() const { return b0_; }
 
@@ -251,8 +229,7 @@ class Segmenter {
 
   // The accumulators start a sub-block with the detector's limits and the rotation bound. A new
   // bias moves what is held first.
-  // both: start both accumulators (the stream's kind is not known yet), else the one in use.
-  void open_sub_block(bool both = false) {
+  void open_sub_block() {
     if (bias_pending_) {
       bias_pending_ = false;
       const Vector3<Scalar> db = pending_bias_ - b0_;
@@ -267,8 +244,7 @@ class Segmenter {
     l.energy_max = energy_max_;
     l.weight = weight_;
     l.acc_ref_is_mean = mean_follows_;
-    if (both || raw_mode_) raw_.start(l);
-    if (both || !raw_mode_) float_.start(l);
+    sub_.start(l);
   }
 
   // A sub-block's sums into the detector and the blocks: close the block before it if it
@@ -382,10 +358,8 @@ class Segmenter {
   }
 
   // The per-sample path's members first (single-instruction offsets on Arm).
-  RawSubBlock<Scalar> raw_{};
-  FloatSubBlock<Scalar> float_{};
+  SubBlock<Scalar> sub_{};
   std::uint32_t sub_us_ = 0;
-  bool raw_mode_ = false;
   bool rest_open_ = false;
   StillnessDetector<Scalar> detector_{};
   Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added

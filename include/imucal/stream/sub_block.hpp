@@ -6,16 +6,17 @@
 // blocks and the segment statistics then work once per sub-block on its sums (the strapdown
 // two-rate design: a cheap fast loop, the float work at a lower rate).
 //
-// Two accumulators fill the same SubBlockStats:
-//   RawSubBlock    16-bit counts, integer arithmetic only per sample (the moving averages in
-//                  fixed point): the accelerometer's
-//                  deviations from the detector's reference (their sum exact, their squares
-//                  summed with and without the detector's clip), the gyro's energy, and the
-//                  rotation statistics of the trapezoid rate (alpha, and the second-order terms
-//                  beta and gamma exactly, in 64 and 32 bits) with an integer part of the bias
-//                  removed; the fractional part of the bias is added exactly once per sub-block.
-//   FloatSubBlock  readings in any unit, the same sums in the scalar type (the segment
-//                  statistics sample by sample, with each sample's own interval).
+// One accumulator (SubBlock) takes the samples in either of two arithmetics, one per stream, both
+// through the same per-sample steps into the same SubBlockStats:
+//   16-bit counts   integer arithmetic only per sample (the moving averages in fixed point): the
+//                   accelerometer's deviations from the detector's reference (their sum exact,
+//                   their squares summed with and without the detector's clip), the gyro's
+//                   energy, and the rotation statistics of the trapezoid rate (alpha, and the
+//                   second-order terms beta and gamma exactly, in 64 and 32 bits) with an integer
+//                   part of the bias removed; the fractional part of the bias is added exactly
+//                   once per sub-block (detail::RawSums).
+//   readings        in any unit, the same sums in the scalar type (the segment statistics sample
+//                   by sample, with each sample's own interval; detail::FloatSums).
 // The integer path takes the sub-block's mean interval for beta and gamma (second order; alpha
 // and the duration are exact whatever the steps).
 //
@@ -32,6 +33,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "imucal/stream/gyro_segment.hpp"
 #include "imucal/types.hpp"
@@ -202,148 +204,147 @@ bool bits_differ(const T& a, const T& b) {
   return std::memcmp(&a, &b, sizeof(T)) != 0;
 }
 
-}  // namespace detail
-
-// Readings in the scalar type.
+// The arithmetic of readings in the scalar type: the sums and the moving averages sample by
+// sample, each sample with its own interval. SubBlock's per-sample steps call it (see there).
 template <typename Scalar>
-class FloatSubBlock {
+class FloatSums {
  public:
-  // Empty, with the limits for this sub-block. The previous sample's rate (the trapezoid's
-  // other end) is kept, moved to the new bias (forget_rate() after start() clears it).
-  void start(const SubBlockLimits<Scalar>& l) {
-    if (detail::bits_differ(l.gyro_bias, lim_.gyro_bias)) u_prev_ += l.gyro_bias - lim_.gyro_bias;
-    lim_ = l;
-    clear();
+  using Input = ImuSample<Scalar>;
+  struct Step {  // the sample's interval and the averages' weight for it
+    Scalar dt, w;
+  };
+  struct Cue {  // the deviations from the moving mean, their squares, their sum and clipped sum
+    Scalar d0, d1, d2, q0, q1, q2, dev, clipped;
+  };
+  struct Rate {  // u = w + b0, |u|^2 (and clipped), the trapezoid's mean rate
+    Vector3<Scalar> u, m;
+    Scalar e, e_clipped;
+  };
+
+  // The previous sample's rate (the trapezoid's other end) moves to the new bias.
+  void start(const SubBlockLimits<Scalar>& l, const SubBlockLimits<Scalar>& old) {
+    if (bits_differ(l.gyro_bias, old.gyro_bias)) u_prev_ += l.gyro_bias - old.gyro_bias;
   }
-  // The rate before the next sample is zero (after a rest), or unknown (it starts the stream
-  // again: it has no interval then, its step_us is 0). Call it after start().
   void forget_rate() { u_prev_.setZero(); }
-  // The moving averages (the accelerometer's variance summed over the axes, the gyro's energy).
   void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy) {
     mean_ = mean;
     va_ = accel;
     ee_ = energy;
   }
-
-  std::uint32_t size() const { return s_.n; }
-  std::uint32_t t_begin() const { return s_.t_begin; }
-  bool energy_full() const { return s_.energy > lim_.energy_max; }
-  // The latest sample's state.
-  bool still() const { return still_; }
-  // A sub-block that ended because a sample's state differed: true once, with its sums.
-  bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
-  // The finished sub-block if one is held (see FinishedSubBlock::held()).
-  const SubBlockStats<Scalar>* done() const { return done_.held(); }
-  void release_done() { done_.release(); }
-
-  // One sample, step_us after the previous one (0: none before it). False: a glitch (its
-  // accelerometer reading beyond the glitch limit): nothing changed.
-  bool add(const ImuSample<Scalar>& x, std::uint32_t step_us, bool acc_saturated) {
-    // The cue: the deviation from the detector's moving mean.
-    const Scalar d0 = x.acc(0) - mean_(0), d1 = x.acc(1) - mean_(1), d2 = x.acc(2) - mean_(2);
-    const Scalar q0 = d0 * d0, q1 = d1 * d1, q2 = d2 * d2;
-    const Scalar dev = q0 + q1 + q2;
-    if (!acc_saturated && dev > lim_.glitch2) return false;
-    const Scalar dt = static_cast<Scalar>(step_us) * Scalar(1e-6);
-    const Scalar w = dt / (lim_.seconds + dt);
-    const Scalar c = lim_.dev_clip;
-    const Scalar clipped = (q0 < c ? q0 : c) + (q1 < c ? q1 : c) + (q2 < c ? q2 : c);
-    Vector3<Scalar> u, m;
-    Scalar e = Scalar(0);
-#pragma GCC unroll 3
-    for (int i = 0; i < 3; ++i) {
-      u(i) = x.gyro(i) + lim_.gyro_bias(i);
-      e += u(i) * u(i);
-      m(i) = Scalar(0.5) * (u(i) + u_prev_(i));
-      u_prev_(i) = u(i);
-    }
-    const Scalar e_clipped = e < lim_.energy_clip ? e : lim_.energy_clip;
-    // The moving averages: the accelerometer's keeps (1 - w) of itself and its sample's share
-    // (a saturated reading changes nothing), the gyro's moves w of the way.
-    if (!acc_saturated) {
-      va_ = (Scalar(1) - w) * (va_ + w * clipped);
-      mean_(0) += w * d0;
-      mean_(1) += w * d1;
-      mean_(2) += w * d2;
-    }
-    ee_ += w * (e_clipped - ee_);
-    const bool still = !acc_saturated && va_ <= lim_.accel_threshold &&
-                       (!lim_.use_gyro || ee_ <= lim_.energy_threshold);
-    if (s_.n > 0 && still != s_.still) {
-      done_.stats = finish();
-      done_.full = true;
-      clear();
-    }
-    s_.still = still_ = still;
-    if (!acc_saturated) {
-      s_.acc_sum += x.acc - lim_.acc_ref;
-      s_.dev += dev;
-      s_.dev_clipped += clipped;
-      ++s_.n_acc;
-    }
-    s_.energy += e;
-    s_.energy_clipped += e_clipped;
-    if (step_us != 0) {
-      if (still)
-        s_.seg.add_first_order(m, dt);
-      else
-        s_.seg.add(m, dt);
-      ++s_.intervals;
-      s_.duration_us += step_us;
-    }
-    if (s_.n == 0) s_.t_begin = x.t_us;
-    s_.t_end = x.t_us;
-    ++s_.n;
-    return true;
+  void clear(const SubBlockLimits<Scalar>& l) {
+    sums_ = Sums{};
+    acc_ref_ = l.acc_ref;
   }
 
-  // A temperature for the sample added last (1/4096 deg C, relative to the stream's reference).
-  void add_temperature(std::int32_t q) { temp_.add(q); }
+  Step step(std::uint32_t step_us, const SubBlockLimits<Scalar>& l) const {
+    const Scalar dt = static_cast<Scalar>(step_us) * Scalar(1e-6);
+    return {dt, dt / (l.seconds + dt)};
+  }
+  void cue(const Input& x, const SubBlockLimits<Scalar>& l, Cue& c) const {
+    c.d0 = x.acc(0) - mean_(0), c.d1 = x.acc(1) - mean_(1), c.d2 = x.acc(2) - mean_(2);
+    c.q0 = c.d0 * c.d0, c.q1 = c.d1 * c.d1, c.q2 = c.d2 * c.d2;
+    c.dev = c.q0 + c.q1 + c.q2;
+    const Scalar k = l.dev_clip;
+    c.clipped = (c.q0 < k ? c.q0 : k) + (c.q1 < k ? c.q1 : k) + (c.q2 < k ? c.q2 : k);
+  }
+  static bool glitch(const Cue& c, const SubBlockLimits<Scalar>& l) { return c.dev > l.glitch2; }
+  void rate(const Input& x, const SubBlockLimits<Scalar>& l, Rate& r) const {
+    r.e = Scalar(0);
+#pragma GCC unroll 3
+    for (int i = 0; i < 3; ++i) {
+      r.u(i) = x.gyro(i) + l.gyro_bias(i);
+      r.e += r.u(i) * r.u(i);
+      r.m(i) = Scalar(0.5) * (r.u(i) + u_prev_(i));
+    }
+    r.e_clipped = r.e < l.energy_clip ? r.e : l.energy_clip;
+  }
+  // The accelerometer's average keeps (1 - w) of itself and the sample's share, the gyro's
+  // moves w of the way.
+  void follow_accel(const Input& /*x*/, const Cue& c, const Step& h) {
+    va_ = (Scalar(1) - h.w) * (va_ + h.w * c.clipped);
+    mean_(0) += h.w * c.d0;
+    mean_(1) += h.w * c.d1;
+    mean_(2) += h.w * c.d2;
+  }
+  void follow_energy(const Rate& r, const Step& h) { ee_ += h.w * (r.e_clipped - ee_); }
+  bool accel_still(const SubBlockLimits<Scalar>& l) const { return va_ <= l.accel_threshold; }
+  bool energy_still(const SubBlockLimits<Scalar>& l) const { return ee_ <= l.energy_threshold; }
+  void sum_accel(const Input& x, const Cue& c) {
+    sums_.acc += x.acc - acc_ref_;
+    sums_.dev += c.dev;
+    sums_.dev_clipped += c.clipped;
+  }
+  void sum_rate(const Rate& r) {
+    sums_.energy += r.e;
+    sums_.energy_clipped += r.e_clipped;
+  }
+  void rotate(const Rate& r, const Step& h, bool still, std::uint32_t /*intervals*/) {
+    if (still)
+      sums_.seg.add_first_order(r.m, h.dt);
+    else
+      sums_.seg.add(r.m, h.dt);
+  }
+  void keep_rate(const Rate& r) { u_prev_ = r.u; }
+  bool energy_full(const SubBlockLimits<Scalar>& l) const { return sums_.energy > l.energy_max; }
 
-  SubBlockStats<Scalar> finish() const {
-    SubBlockStats<Scalar> s = s_;
-    temp_.finish(s);
+  // The sums into s (whose counts are set).
+  void finish(SubBlockStats<Scalar>& s, const SubBlockLimits<Scalar>& /*l*/) const {
+    s.acc_ref = acc_ref_;
+    s.acc_sum = sums_.acc;
+    s.dev = sums_.dev;
+    s.dev_clipped = sums_.dev_clipped;
+    s.energy = sums_.energy;
+    s.energy_clipped = sums_.energy_clipped;
+    s.seg = sums_.seg;
     s.moving_mean = mean_;
-    if (s.n_acc > 0 && s.n_acc < s.n)
-      s.acc_sum *= static_cast<Scalar>(s.n) / static_cast<Scalar>(s.n_acc);
-    s.path = s.n > 0 ? s.seg.duration * std::sqrt(s.energy / static_cast<Scalar>(s.n)) : Scalar(0);
-    return s;
   }
 
  private:
-  void clear() {
-    s_ = SubBlockStats<Scalar>{};
-    s_.acc_ref = lim_.acc_ref;
-    temp_.clear();
-  }
-
-  SubBlockLimits<Scalar> lim_{};
-  SubBlockStats<Scalar> s_{};
-  SubBlockTemperature temp_{};
-  FinishedSubBlock<Scalar> done_{};
+  struct Sums {
+    Vector3<Scalar> acc = Vector3<Scalar>::Zero();
+    Scalar dev = Scalar(0), dev_clipped = Scalar(0), energy = Scalar(0), energy_clipped = Scalar(0);
+    GyroSegment<Scalar> seg{};
+  };
+  Sums sums_{};
+  Vector3<Scalar> acc_ref_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> u_prev_ = Vector3<Scalar>::Zero();
   Vector3<Scalar> mean_ = Vector3<Scalar>::Zero();  // the moving mean, sample by sample
   Scalar va_ = Scalar(0), ee_ = Scalar(0);
-  bool still_ = true;
 };
 
-// 16-bit counts. Every sum is exact in integers: for at most kMaxSubBlockSamples samples the
-// accelerometer's sums fit 32 bits (its squared deviations clamped at 32767 counts a side, a
-// deviation no rest has), the gyro's energy and beta 64 bits, gamma 32 bits. The moving averages
-// are fixed point (raw units^2 x 16), with one sample's weight from the expected interval.
+// The arithmetic of 16-bit counts. Every sum is exact in integers: for at most
+// kMaxSubBlockSamples samples the accelerometer's sums fit 32 bits (its squared deviations
+// clamped at 32767 counts a side, a deviation no rest has), the gyro's energy and beta 64 bits,
+// gamma 32 bits. The moving averages are fixed point (raw units^2 x 16), with one sample's weight
+// from the expected interval.
 template <typename Scalar>
-class RawSubBlock {
+class RawSums {
  public:
-  // Empty, with the limits for this sub-block. Without hardware floating point a limit is
-  // converted only when it differs from the previous sub-block's (most sub-blocks change none but
-  // the reference); with it every limit is converted, which costs less than the compares.
-  void start(const SubBlockLimits<Scalar>& l) {
-    const bool all = !converted_ || detail::hardware_float<Scalar>();
+  using Input = RawFrame;
+  struct Step {
+    std::uint32_t us;
+  };
+  struct Cue {
+    // the sums' deviation (from the sub-block's fixed reference); the squares of the cue's (from
+    // the moving mean, in sixteenths of a count: 1/256 count^2), their sum and clipped sum
+    std::int32_t d0, d1, d2;
+    std::uint32_t q0, q1, q2, dev, clipped;
+  };
+  struct Rate {
+    std::int32_t u[3];
+    std::uint32_t e, e_clipped;
+  };
+
+  // The limits converted. Without hardware floating point a limit is converted only when it
+  // differs from the previous sub-block's (most sub-blocks change none but the reference); with
+  // it every limit is converted, which costs less than the compares.
+  void start(const SubBlockLimits<Scalar>& l, const SubBlockLimits<Scalar>& old) {
+    const bool all = !converted_ || hardware_float<Scalar>();
     converted_ = true;
-    if (all || detail::bits_differ(l.gyro_bias, lim_.gyro_bias)) {
+    if (all || bits_differ(l.gyro_bias, old.gyro_bias)) {
       db_zero_ = true;
       for (int i = 0; i < 3; ++i) {
-        const std::int32_t b = detail::round_to_int(l.gyro_bias(i));
+        const std::int32_t b = round_to_int(l.gyro_bias(i));
         u_prev_[i] += b - bias_[i];  // the trapezoid's other end, moved to the new bias
         bias_[i] = b;
         db_(i) = l.gyro_bias(i) - static_cast<Scalar>(b);
@@ -352,165 +353,148 @@ class RawSubBlock {
       db2_ = db_.squaredNorm();
     }
     for (int i = 0; i < 3; ++i)
-      ref_[i] =
-          l.acc_ref_is_mean ? detail::round_q8(mean_q8_[i]) : detail::round_to_int(l.acc_ref(i));
+      ref_[i] = l.acc_ref_is_mean ? round_q8(mean_q8_[i]) : round_to_int(l.acc_ref(i));
     // A clip, a glitch limit or a bound beyond what the sums can hold is no clip, limit or bound.
-    if (all || detail::bits_differ(l.dev_clip, lim_.dev_clip))
-      dev_clip_q8_ = detail::to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
-    if (all || detail::bits_differ(l.energy_clip, lim_.energy_clip))
-      energy_clip_ = detail::to_u32_limit(l.energy_clip, kEnergyClipCap);
-    if (all || detail::bits_differ(l.glitch2, lim_.glitch2))
-      glitch2_q8_ = detail::to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
-    if (all || detail::bits_differ(l.energy_max, lim_.energy_max))
-      energy_max_ = detail::to_u64_limit(l.energy_max);
+    if (all || bits_differ(l.dev_clip, old.dev_clip))
+      dev_clip_q8_ = to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
+    if (all || bits_differ(l.energy_clip, old.energy_clip))
+      energy_clip_ = to_u32_limit(l.energy_clip, kEnergyClipCap);
+    if (all || bits_differ(l.glitch2, old.glitch2))
+      glitch2_q8_ = to_u32_limit(Scalar(256) * l.glitch2, 0xFFFFFFFFu);
+    if (all || bits_differ(l.energy_max, old.energy_max)) energy_max_ = to_u64_limit(l.energy_max);
     // The averages in fixed point: the accelerometer's as v = variance / (1 - w), which moves
     // w of the way to each sample's share as the gyro's does (rescaled when w changes).
-    const bool new_weight = all || detail::bits_differ(l.weight, lim_.weight);
-    const bool new_accel =
-        new_weight || detail::bits_differ(l.accel_threshold, lim_.accel_threshold);
-    const bool new_energy = all || detail::bits_differ(l.energy_threshold, lim_.energy_threshold);
-    const Scalar w_old = weight();
-    lim_ = l;
-    const Scalar w = weight();
+    const bool new_weight = all || bits_differ(l.weight, old.weight);
+    const bool new_accel = new_weight || bits_differ(l.accel_threshold, old.accel_threshold);
+    const bool new_energy = all || bits_differ(l.energy_threshold, old.energy_threshold);
+    const Scalar w_old = weight(old), w = weight(l);
     if (new_weight) {
       if (w != w_old)
-        va_q8_ = static_cast<std::int32_t>(detail::to_u32_limit(
+        va_q8_ = static_cast<std::int32_t>(to_u32_limit(
             static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
       weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
     }
     if (new_accel)
       accel_max_q8_ = static_cast<std::int32_t>(
-          detail::to_u32_limit(Scalar(256) * l.accel_threshold / (Scalar(1) - w), 0x7FFFFFFFu));
+          to_u32_limit(Scalar(256) * l.accel_threshold / (Scalar(1) - w), 0x7FFFFFFFu));
     if (new_energy)
-      energy_max_q4_ = static_cast<std::int32_t>(
-          detail::to_u32_limit(Scalar(16) * l.energy_threshold, 0x7FFFFFFFu));
-    use_gyro_ = l.use_gyro;
-    clear();
+      energy_max_q4_ =
+          static_cast<std::int32_t>(to_u32_limit(Scalar(16) * l.energy_threshold, 0x7FFFFFFFu));
   }
+  // The next start() converts every limit.
+  void stale() { converted_ = false; }
   void forget_rate() { u_prev_[0] = u_prev_[1] = u_prev_[2] = 0; }
-  void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy) {
-    for (int i = 0; i < 3; ++i) mean_q8_[i] = detail::round_to_int(Scalar(256) * mean(i));
+  void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy,
+                    const SubBlockLimits<Scalar>& l) {
+    for (int i = 0; i < 3; ++i) mean_q8_[i] = round_to_int(Scalar(256) * mean(i));
     va_q8_ = static_cast<std::int32_t>(
-        detail::to_u32_limit(Scalar(256) * accel / (Scalar(1) - weight()), 0x7FFFFFFFu));
-    ee_q4_ = static_cast<std::int32_t>(detail::to_u32_limit(Scalar(16) * energy, 0x7FFFFFFFu));
+        to_u32_limit(Scalar(256) * accel / (Scalar(1) - weight(l)), 0x7FFFFFFFu));
+    ee_q4_ = static_cast<std::int32_t>(to_u32_limit(Scalar(16) * energy, 0x7FFFFFFFu));
+  }
+  // Written out member by member: a loop here becomes a call to memset, costlier than the stores.
+  void clear(const SubBlockLimits<Scalar>& /*l*/) {
+    s1_[0] = s1_[1] = s1_[2] = 0;
+    u1_[0] = u1_[1] = u1_[2] = 0;
+    p_[0] = p_[1] = p_[2] = 0;
+    q_[0] = q_[1] = q_[2] = 0;
+    x_[0] = x_[1] = x_[2] = 0;
+    c_[0] = c_[1] = c_[2] = 0;
+    step0_ = 0;
+    dev_ = energy_ = 0;
+    dev_c_ = energy_c_ = 0;
   }
 
-  std::uint32_t size() const { return n_; }
-  std::uint32_t t_begin() const { return t_begin_; }
-  bool energy_full() const { return energy_ > energy_max_; }
-  bool still() const { return still_; }
-  bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
-  // The finished sub-block if one is held (see FinishedSubBlock::held()).
-  const SubBlockStats<Scalar>* done() const { return done_.held(); }
-  void release_done() { done_.release(); }
-
-  // One frame, step_us after the previous one (0: none before it). False: a glitch.
-  __attribute__((always_inline)) bool add(const RawFrame& f, std::uint32_t step_us,
-                                          bool acc_saturated) {
-    // The sums' deviation (from the sub-block's fixed reference) and the cue's (from the moving
-    // mean, in sixteenths of a count: its square in 1/256 count^2).
-    const std::int32_t d0 = f.acc[0] - ref_[0], d1 = f.acc[1] - ref_[1], d2 = f.acc[2] - ref_[2];
-    const std::int32_t m0 = detail::clamp16((f.acc[0] * 256 - mean_q8_[0]) >> 4),
-                       m1 = detail::clamp16((f.acc[1] * 256 - mean_q8_[1]) >> 4),
-                       m2 = detail::clamp16((f.acc[2] * 256 - mean_q8_[2]) >> 4);
-    const std::uint32_t q0 = static_cast<std::uint32_t>(m0 * m0),
-                        q1 = static_cast<std::uint32_t>(m1 * m1),
-                        q2 = static_cast<std::uint32_t>(m2 * m2);
-    const std::uint32_t dev = q0 + q1 + q2;  // 1/256 count^2
-    if (!acc_saturated && dev > glitch2_q8_) return false;
-    const std::uint32_t c = dev_clip_q8_;
-    const std::uint32_t clipped = (q0 < c ? q0 : c) + (q1 < c ? q1 : c) + (q2 < c ? q2 : c);
-    std::int32_t u[3];
-    std::uint32_t e = 0;
+  static Step step(std::uint32_t step_us, const SubBlockLimits<Scalar>& /*l*/) { return {step_us}; }
+  void cue(const Input& f, const SubBlockLimits<Scalar>& /*l*/, Cue& c) const {
+    c.d0 = f.acc[0] - ref_[0], c.d1 = f.acc[1] - ref_[1], c.d2 = f.acc[2] - ref_[2];
+    const std::int32_t m0 = clamp16((f.acc[0] * 256 - mean_q8_[0]) >> 4),
+                       m1 = clamp16((f.acc[1] * 256 - mean_q8_[1]) >> 4),
+                       m2 = clamp16((f.acc[2] * 256 - mean_q8_[2]) >> 4);
+    c.q0 = static_cast<std::uint32_t>(m0 * m0);
+    c.q1 = static_cast<std::uint32_t>(m1 * m1);
+    c.q2 = static_cast<std::uint32_t>(m2 * m2);
+    c.dev = c.q0 + c.q1 + c.q2;
+    const std::uint32_t k = dev_clip_q8_;
+    c.clipped = (c.q0 < k ? c.q0 : k) + (c.q1 < k ? c.q1 : k) + (c.q2 < k ? c.q2 : k);
+  }
+  bool glitch(const Cue& c, const SubBlockLimits<Scalar>& /*l*/) const {
+    return c.dev > glitch2_q8_;
+  }
+  void rate(const Input& f, const SubBlockLimits<Scalar>& /*l*/, Rate& r) const {
+    r.e = 0;
 #pragma GCC unroll 3
     for (int i = 0; i < 3; ++i) {
-      u[i] = f.gyro[i] + bias_[i];
-      const std::int32_t g = detail::clamp16(u[i]);
-      e += static_cast<std::uint32_t>(g * g);
+      r.u[i] = f.gyro[i] + bias_[i];
+      const std::int32_t g = clamp16(r.u[i]);
+      r.e += static_cast<std::uint32_t>(g * g);
     }
-    const std::uint32_t e_clipped = e < energy_clip_ ? e : energy_clip_;
-    // The moving averages, w of the way to each sample's share (the accelerometer's in 1/256
-    // count^2, the gyro's in 1/16), and the moving mean (1/256 count).
-    if (!acc_saturated) {
-      va_q8_ += step(static_cast<std::int32_t>(clipped), va_q8_);
-      mean_q8_[0] += step(f.acc[0] * 256, mean_q8_[0]);
-      mean_q8_[1] += step(f.acc[1] * 256, mean_q8_[1]);
-      mean_q8_[2] += step(f.acc[2] * 256, mean_q8_[2]);
-    }
-    ee_q4_ += step(static_cast<std::int32_t>(e_clipped << 4), ee_q4_);
-    const bool still =
-        !acc_saturated && va_q8_ <= accel_max_q8_ && (!use_gyro_ || ee_q4_ <= energy_max_q4_);
-    if (n_ > 0 && still != sub_still_) {
-      done_.stats = finish();
-      done_.full = true;
-      clear();
-    }
-    sub_still_ = still_ = still;
-    if (!acc_saturated) {
-      s1_[0] += d0;
-      s1_[1] += d1;
-      s1_[2] += d2;
-      dev_ += dev;
-      dev_c_ += clipped;
-      ++n_acc_;
-    }
-    u1_[0] += u[0];
-    u1_[1] += u[1];
-    u1_[2] += u[2];
-    energy_ += e;
-    energy_c_ += e_clipped;
-    if (step_us != 0) {
-      // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the
-      // earlier s of this sub-block: beta += P x s; gamma's sum of P - k s (k the earlier
-      // intervals) is 2 Q - (K - 1) P at the end, Q the sum of the earlier P (finish()).
-      // A still sub-block's rotation is first order (the header says why): no beta, no gamma.
-      const std::int32_t s0 = u[0] + u_prev_[0], s1 = u[1] + u_prev_[1], s2 = u[2] + u_prev_[2];
-      if (!still) {
-        detail::cross_add(x_[0], p_[1], s2, p_[2], s1);
-        detail::cross_add(x_[1], p_[2], s0, p_[0], s2);
-        detail::cross_add(x_[2], p_[0], s1, p_[1], s0);
-        q_[0] += static_cast<std::uint32_t>(p_[0]);
-        q_[1] += static_cast<std::uint32_t>(p_[1]);
-        q_[2] += static_cast<std::uint32_t>(p_[2]);
-      }
-      p_[0] += s0;
-      p_[1] += s1;
-      p_[2] += s2;
-      // alpha exactly whatever the steps: h0 P + sum s (step - h0), h0 the first step; with
-      // equal steps (a FIFO) the correction is zero and costs a compare.
-      if (intervals_ == 0) {
-        step0_ = step_us;
-      } else if (step_us != step0_) {
-        const std::int64_t ds = static_cast<std::int64_t>(step_us) - step0_;
-        c_[0] += s0 * ds;
-        c_[1] += s1 * ds;
-        c_[2] += s2 * ds;
-      }
-      duration_us_ += step_us;
-      ++intervals_;
-    }
-    u_prev_[0] = u[0];
-    u_prev_[1] = u[1];
-    u_prev_[2] = u[2];
-    if (n_ == 0) t_begin_ = f.t_us;
-    t_end_ = f.t_us;
-    ++n_;
-    return true;
+    r.e_clipped = r.e < energy_clip_ ? r.e : energy_clip_;
   }
+  // The averages, w of the way to each sample's share (the accelerometer's in 1/256 count^2, the
+  // gyro's in 1/16), and the moving mean (1/256 count).
+  void follow_accel(const Input& f, const Cue& c, const Step& /*h*/) {
+    va_q8_ += weighted(static_cast<std::int32_t>(c.clipped), va_q8_);
+    mean_q8_[0] += weighted(f.acc[0] * 256, mean_q8_[0]);
+    mean_q8_[1] += weighted(f.acc[1] * 256, mean_q8_[1]);
+    mean_q8_[2] += weighted(f.acc[2] * 256, mean_q8_[2]);
+  }
+  void follow_energy(const Rate& r, const Step& /*h*/) {
+    ee_q4_ += weighted(static_cast<std::int32_t>(r.e_clipped << 4), ee_q4_);
+  }
+  bool accel_still(const SubBlockLimits<Scalar>& /*l*/) const { return va_q8_ <= accel_max_q8_; }
+  bool energy_still(const SubBlockLimits<Scalar>& /*l*/) const { return ee_q4_ <= energy_max_q4_; }
+  void sum_accel(const Input& /*f*/, const Cue& c) {
+    s1_[0] += c.d0;
+    s1_[1] += c.d1;
+    s1_[2] += c.d2;
+    dev_ += c.dev;
+    dev_c_ += c.clipped;
+  }
+  void sum_rate(const Rate& r) {
+    u1_[0] += r.u[0];
+    u1_[1] += r.u[1];
+    u1_[2] += r.u[2];
+    energy_ += r.e;
+    energy_c_ += r.e_clipped;
+  }
+  // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the earlier s
+  // of this sub-block: beta += P x s; gamma's sum of P - k s (k the earlier intervals) is
+  // 2 Q - (K - 1) P at the end, Q the sum of the earlier P (finish()). A still sub-block's
+  // rotation is first order (the header says why): no beta, no gamma.
+  void rotate(const Rate& r, const Step& h, bool still, std::uint32_t intervals) {
+    const std::int32_t s0 = r.u[0] + u_prev_[0], s1 = r.u[1] + u_prev_[1], s2 = r.u[2] + u_prev_[2];
+    if (!still) {
+      cross_add(x_[0], p_[1], s2, p_[2], s1);
+      cross_add(x_[1], p_[2], s0, p_[0], s2);
+      cross_add(x_[2], p_[0], s1, p_[1], s0);
+      q_[0] += static_cast<std::uint32_t>(p_[0]);
+      q_[1] += static_cast<std::uint32_t>(p_[1]);
+      q_[2] += static_cast<std::uint32_t>(p_[2]);
+    }
+    p_[0] += s0;
+    p_[1] += s1;
+    p_[2] += s2;
+    // alpha exactly whatever the steps: h0 P + sum s (step - h0), h0 the first step; with equal
+    // steps (a FIFO) the correction is zero and costs a compare.
+    if (intervals == 0) {
+      step0_ = h.us;
+    } else if (h.us != step0_) {
+      const std::int64_t ds = static_cast<std::int64_t>(h.us) - step0_;
+      c_[0] += s0 * ds;
+      c_[1] += s1 * ds;
+      c_[2] += s2 * ds;
+    }
+  }
+  void keep_rate(const Rate& r) {
+    u_prev_[0] = r.u[0];
+    u_prev_[1] = r.u[1];
+    u_prev_[2] = r.u[2];
+  }
+  bool energy_full(const SubBlockLimits<Scalar>& /*l*/) const { return energy_ > energy_max_; }
 
-  // A temperature for the sample added last (1/4096 deg C, relative to the stream's reference).
-  void add_temperature(std::int32_t q) { temp_.add(q); }
-
-  SubBlockStats<Scalar> finish() const {
-    SubBlockStats<Scalar> s;
-    s.still = sub_still_;
-    s.n = n_;
-    s.n_acc = n_acc_;
-    s.intervals = intervals_;
-    s.duration_us = duration_us_;
-    s.t_begin = t_begin_;
-    s.t_end = t_end_;
-    const Scalar na = static_cast<Scalar>(n_acc_), n = static_cast<Scalar>(n_);
+  // The sums into s (whose counts are set).
+  void finish(SubBlockStats<Scalar>& s, const SubBlockLimits<Scalar>& /*l*/) const {
+    const Scalar n = static_cast<Scalar>(s.n);
     // The gyro's sums are about the rounded bias; the limits' is db_ away.
     Scalar db_dot_u1 = Scalar(0);
     for (int i = 0; i < 3; ++i) {
@@ -518,12 +502,11 @@ class RawSubBlock {
       s.acc_sum(i) = static_cast<Scalar>(s1_[i]);
       if (!db_zero_) db_dot_u1 += db_(i) * static_cast<Scalar>(u1_[i]);
     }
-    if (n_acc_ > 0 && n_acc_ < n_) s.acc_sum *= n / na;
-    s.dev = detail::to_scalar<Scalar>(dev_) * Scalar(1.0 / 256);
-    s.dev_clipped = detail::to_scalar<Scalar>(dev_c_) * Scalar(1.0 / 256);
+    s.dev = to_scalar<Scalar>(dev_) * Scalar(1.0 / 256);
+    s.dev_clipped = to_scalar<Scalar>(dev_c_) * Scalar(1.0 / 256);
     for (int i = 0; i < 3; ++i)
       s.moving_mean(i) = static_cast<Scalar>(mean_q8_[i]) * Scalar(1.0 / 256);
-    const Scalar energy = detail::to_scalar<Scalar>(energy_);
+    const Scalar energy = to_scalar<Scalar>(energy_);
     s.energy = energy;
     if (!db_zero_) {
       s.energy = energy + Scalar(2) * db_dot_u1 + n * db2_;
@@ -534,30 +517,27 @@ class RawSubBlock {
                            : static_cast<Scalar>(energy_c_);
     // The rotation statistics of the integer rate u = w + round(b0) at the mean interval h:
     // alpha = h/2 P, beta = h^2/4 X, gamma = h^2/2 Y; then the rest of the bias, exactly.
-    const Scalar duration = static_cast<Scalar>(duration_us_) * Scalar(1e-6);
-    if (intervals_ > 0) {
+    if (s.intervals > 0) {
+      const Scalar duration = static_cast<Scalar>(s.duration_us) * Scalar(1e-6);
       const Scalar h0 = static_cast<Scalar>(step0_) * Scalar(1e-6);
       for (int i = 0; i < 3; ++i) {
         const Scalar a = h0 * static_cast<Scalar>(p_[i]);
         s.seg.alpha(i) =
-            Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * detail::to_scalar<Scalar>(c_[i]));
+            Scalar(0.5) * (c_[i] == 0 ? a : a + Scalar(1e-6) * to_scalar<Scalar>(c_[i]));
       }
       s.seg.duration = duration;
-      if (!sub_still_) {
-        const Scalar h = duration / static_cast<Scalar>(intervals_);
+      if (!s.still) {
+        const Scalar h = duration / static_cast<Scalar>(s.intervals);
         const Scalar b = Scalar(0.25) * h * h, g = Scalar(0.5) * h * h;
         for (int i = 0; i < 3; ++i) {
-          s.seg.beta(i) = b * detail::to_scalar<Scalar>(x_[i]);
-          s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i));
+          s.seg.beta(i) = b * to_scalar<Scalar>(x_[i]);
+          s.seg.gamma(i) = g * static_cast<Scalar>(gamma_sum(i, s.intervals));
         }
         if (!db_zero_) s.seg.add_bias(db_);
       } else if (!db_zero_) {
         s.seg.add_bias_first_order(db_);
       }
     }
-    s.path = n_ > 0 ? duration * std::sqrt(s.energy / n) : Scalar(0);
-    temp_.finish(s);
-    return s;
   }
 
  private:
@@ -565,41 +545,25 @@ class RawSubBlock {
   static constexpr std::uint32_t kDevClipCap = 1u << 28;     // per axis, 1/256 count^2
   static constexpr std::uint32_t kEnergyClipCap = 1u << 26;  // per sample
 
-  Scalar weight() const {
-    return lim_.weight > Scalar(0) && lim_.weight < Scalar(1) ? lim_.weight : Scalar(0);
+  static Scalar weight(const SubBlockLimits<Scalar>& l) {
+    return l.weight > Scalar(0) && l.weight < Scalar(1) ? l.weight : Scalar(0);
   }
 
   // w (x - y) in fixed point.
-  std::int32_t step(std::int32_t x, std::int32_t y) const {
+  std::int32_t weighted(std::int32_t x, std::int32_t y) const {
     const std::int32_t d = x - y;
     // weight_q16_ <= 65536: a 16-bit d keeps the product within 32 bits.
-    if (detail::kLongMultiplyIsACall && detail::fits16(d)) return (d * weight_q16_) >> 16;
+    if (kLongMultiplyIsACall && fits16(d)) return (d * weight_q16_) >> 16;
     return static_cast<std::int32_t>((static_cast<std::int64_t>(d) * weight_q16_) >> 16);
   }
 
   // Sum over the intervals of P - k s: 2 Q - (K - 1) P, which fits 32 bits as the sum does (the
   // terms are taken modulo 2^32, so their own range does not matter).
-  std::int32_t gamma_sum(int i) const {
-    const std::uint32_t k1 = intervals_ - 1u;
+  std::int32_t gamma_sum(int i, std::uint32_t intervals) const {
+    const std::uint32_t k1 = intervals - 1u;
     return static_cast<std::int32_t>(2u * q_[i] - k1 * static_cast<std::uint32_t>(p_[i]));
   }
 
-  // Written out member by member: a loop here becomes a call to memset, costlier than the stores.
-  void clear() {
-    s1_[0] = s1_[1] = s1_[2] = 0;
-    u1_[0] = u1_[1] = u1_[2] = 0;
-    p_[0] = p_[1] = p_[2] = 0;
-    q_[0] = q_[1] = q_[2] = 0;
-    x_[0] = x_[1] = x_[2] = 0;
-    c_[0] = c_[1] = c_[2] = 0;
-    step0_ = 0;
-    dev_ = energy_ = 0;
-    dev_c_ = energy_c_ = 0;
-    n_ = n_acc_ = intervals_ = duration_us_ = 0;
-    temp_.clear();
-  }
-
-  SubBlockLimits<Scalar> lim_{};
   Vector3<Scalar> db_ = Vector3<Scalar>::Zero();  // the limits' bias less its rounding, bias_
   Scalar db2_ = Scalar(0);                        // |db_|^2
   bool db_zero_ = true, converted_ = false;
@@ -612,10 +576,173 @@ class RawSubBlock {
   std::uint32_t energy_c_ = 0, dev_clip_q8_ = 0, energy_clip_ = 0, glitch2_q8_ = 0;
   std::int32_t mean_q8_[3] = {0, 0, 0};
   std::int32_t va_q8_ = 0, ee_q4_ = 0, accel_max_q8_ = 0, energy_max_q4_ = 0, weight_q16_ = 0;
+};
+
+}  // namespace detail
+
+// The sub-block accumulator: readings in the scalar type (add(ImuSample)) or 16-bit counts
+// (add(RawFrame)), one kind per stream, decided by its first sample after forget_kind(). Both
+// kinds take the same per-sample steps (step()) in their own arithmetic (detail::FloatSums,
+// detail::RawSums) and fill the same SubBlockStats.
+template <typename Scalar>
+class SubBlock {
+ public:
+  // Empty, with the limits for this sub-block. The previous sample's rate (the trapezoid's other
+  // end) is kept, moved to the new bias (forget_rate() after start() clears it). Until the
+  // stream's kind is known both kinds start.
+  void start(const SubBlockLimits<Scalar>& l) {
+    const bool both = !known_;
+    if (both || raw_) raw_sums_.start(l, lim_);
+    if (both || !raw_) float_sums_.start(l, lim_);
+    lim_ = l;
+    use_gyro_ = l.use_gyro;
+    if (both || raw_) raw_sums_.clear(lim_);
+    if (both || !raw_) float_sums_.clear(lim_);
+    clear();
+  }
+  // The next sample decides the stream's kind again (a stream that starts over).
+  void forget_kind() {
+    if (known_ && !raw_) raw_sums_.stale();
+    known_ = raw_ = false;
+  }
+  // The rate before the next sample is zero (after a rest), or unknown (it starts the stream
+  // again: it has no interval then, its step_us is 0). Call it after start().
+  void forget_rate() {
+    raw_sums_.forget_rate();
+    float_sums_.forget_rate();
+  }
+  // The moving averages (the accelerometer's variance summed over the axes, the gyro's energy).
+  void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy) {
+    raw_sums_.set_averages(mean, accel, energy, lim_);
+    float_sums_.set_averages(mean, accel, energy);
+  }
+
+  std::uint32_t size() const { return n_; }
+  std::uint32_t t_begin() const { return t_begin_; }
+  // The sum of |u|^2 is past the limits' energy_max, in a stream of Input (RawFrame or
+  // ImuSample<Scalar>).
+  template <class Input>
+  bool energy_full() const {
+    if constexpr (std::is_same<Input, RawFrame>::value)
+      return raw_sums_.energy_full(lim_);
+    else
+      return float_sums_.energy_full(lim_);
+  }
+  // The latest sample's state.
+  bool still() const { return still_; }
+  // A sub-block that ended because a sample's state differed: true once, with its sums.
+  bool take_done(SubBlockStats<Scalar>& out) { return done_.take(out); }
+  // The finished sub-block if one is held (see FinishedSubBlock::held()).
+  const SubBlockStats<Scalar>* done() const { return done_.held(); }
+  void release_done() { done_.release(); }
+
+  // One sample, step_us after the previous one (0: none before it). False: a glitch (its
+  // accelerometer reading beyond the glitch limit): nothing changed.
+  __attribute__((always_inline)) bool add(const ImuSample<Scalar>& x, std::uint32_t step_us,
+                                          bool acc_saturated) {
+    if (raw_ || !known_) become(false);
+    return step(float_sums_, x, step_us, acc_saturated);
+  }
+  __attribute__((always_inline)) bool add(const RawFrame& f, std::uint32_t step_us,
+                                          bool acc_saturated) {
+    if (!raw_) become(true);
+    return step(raw_sums_, f, step_us, acc_saturated);
+  }
+
+  // A temperature for the sample added last (1/4096 deg C, relative to the stream's reference).
+  void add_temperature(std::int32_t q) { temp_.add(q); }
+
+  SubBlockStats<Scalar> finish() const { return raw_ ? finish(raw_sums_) : finish(float_sums_); }
+
+ private:
+  // One sample through the detector's cue, its moving averages and the sums, in the kind's
+  // arithmetic.
+  template <class Kind>
+  __attribute__((always_inline)) bool step(Kind& k, const typename Kind::Input& x,
+                                           std::uint32_t step_us, bool acc_saturated) {
+    typename Kind::Cue cue;
+    k.cue(x, lim_, cue);
+    if (!acc_saturated && k.glitch(cue, lim_)) return false;
+    const typename Kind::Step h = k.step(step_us, lim_);
+    typename Kind::Rate r;
+    k.rate(x, lim_, r);
+    // A saturated accelerometer reading changes neither its average nor its sums.
+    if (!acc_saturated) k.follow_accel(x, cue, h);
+    k.follow_energy(r, h);
+    const bool still =
+        !acc_saturated && k.accel_still(lim_) && (!use_gyro_ || k.energy_still(lim_));
+    if (n_ > 0 && still != sub_still_) {
+      done_.stats = finish(k);
+      done_.full = true;
+      k.clear(lim_);
+      clear();
+    }
+    sub_still_ = still_ = still;
+    if (!acc_saturated) {
+      k.sum_accel(x, cue);
+      ++n_acc_;
+    }
+    k.sum_rate(r);
+    if (step_us != 0) {
+      k.rotate(r, h, still, intervals_);
+      ++intervals_;
+      duration_us_ += step_us;
+    }
+    k.keep_rate(r);
+    if (n_ == 0) t_begin_ = x.t_us;
+    t_end_ = x.t_us;
+    ++n_;
+    return true;
+  }
+
+  template <class Kind>
+  SubBlockStats<Scalar> finish(const Kind& k) const {
+    SubBlockStats<Scalar> s;
+    s.still = sub_still_;
+    s.n = n_;
+    s.n_acc = n_acc_;
+    s.intervals = intervals_;
+    s.duration_us = duration_us_;
+    s.t_begin = t_begin_;
+    s.t_end = t_end_;
+    k.finish(s, lim_);
+    // The accelerometer's sum scaled to all n samples.
+    if (n_acc_ > 0 && n_acc_ < n_)
+      s.acc_sum *= static_cast<Scalar>(n_) / static_cast<Scalar>(n_acc_);
+    s.path = n_ > 0 ? s.seg.duration * std::sqrt(s.energy / static_cast<Scalar>(n_)) : Scalar(0);
+    temp_.finish(s);
+    return s;
+  }
+
+  // The stream's kind: readings (false) or frames (true). A stream that changes kind drops the
+  // open sub-block and starts the new kind's arithmetic from the current limits.
+  void become(bool raw) {
+    if (known_) {
+      if (raw) raw_sums_.stale();
+      raw_ = raw;
+      SubBlockLimits<Scalar> l = lim_;
+      known_ = false;
+      start(l);
+      forget_rate();
+    }
+    known_ = true;
+    raw_ = raw;
+  }
+
+  void clear() {
+    n_ = n_acc_ = intervals_ = duration_us_ = 0;
+    temp_.clear();
+  }
+
+  // The per-sample members first (short offsets on ARMv6-M), the limits and the finished
+  // sub-block last.
   std::uint32_t n_ = 0, n_acc_ = 0, intervals_ = 0, duration_us_ = 0;
   std::uint32_t t_begin_ = 0, t_end_ = 0;
   SubBlockTemperature temp_{};
-  bool use_gyro_ = true, still_ = true, sub_still_ = true;
+  bool known_ = false, raw_ = false, still_ = true, sub_still_ = true, use_gyro_ = true;
+  detail::RawSums<Scalar> raw_sums_{};
+  detail::FloatSums<Scalar> float_sums_{};
+  SubBlockLimits<Scalar> lim_{};
   FinishedSubBlock<Scalar> done_{};
 };
 
