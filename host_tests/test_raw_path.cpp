@@ -111,6 +111,51 @@ TEST(SubBlock, CountsGiveTheSumsOfTheSameReadings) {
   }
 }
 
+// A stream that changes kind (readings, then frames of the same counts, or back) goes on from
+// where the moving averages were: readings that walk the accelerometer 1,000 counts away from
+// where the detector started, then frames there, are taken, not refused as glitches against the
+// start's mean; and the frames' own moving mean stays there.
+TEST(SubBlock, AStreamThatChangesKindKeepsItsMovingAverages) {
+  SubBlockLimits<double> l;
+  l.acc_ref = Vector3<double>(0, 0, 4096);
+  l.glitch2 = 100.0 * 100.0;  // counts^2
+  l.accel_threshold = 300.0;
+  l.energy_threshold = 4e4;
+  l.weight = 0.01 / 0.11;
+  l.seconds = 0.1;
+  const Vector3<double> there(1000, 0, 4096);
+  for (const bool frames_first : {false, true}) {
+    SubBlock<double> acc;
+    acc.start(l);
+    acc.set_averages(l.acc_ref, 30.0, 100.0);
+    sim::Random rng(21);
+    std::uint32_t t = 0;
+    const auto feed = [&](const Vector3<double>& a, bool frame) {
+      t += 10000u;
+      const RawFrame f = frame_of(t, a + rng.normal3(), Vector3<double>::Zero());
+      const std::uint32_t step = t == 10000u ? 0u : 10000u;
+      return frame ? acc.add(f, step, false) : acc.add(sample_of<double>(f), step, false);
+    };
+    // A slow walk (5 counts a sample: the moving mean lags by about 55), then 100 samples there.
+    for (int k = 1; k <= 200; ++k) {
+      ASSERT_TRUE(feed(l.acc_ref + (there - l.acc_ref) * (k / 200.0), frames_first)) << k;
+      if (acc.size() >= 16) acc.start(l);
+    }
+    for (int k = 0; k < 100; ++k) {
+      ASSERT_TRUE(feed(there, frames_first));
+      if (acc.size() >= 16) acc.start(l);
+    }
+    // The other kind, at the same place.
+    for (int k = 0; k < 20; ++k) {
+      ASSERT_TRUE(feed(there, !frames_first)) << frames_first << " " << k;
+      if (acc.size() >= 16) acc.start(l);
+    }
+    const SubBlockStats<double> s = acc.finish();
+    EXPECT_LT((s.moving_mean - there).norm(), 2.0) << frames_first;
+    EXPECT_LT((s.acc_ref + s.acc_sum / s.n - there).norm(), 2.0) << frames_first;
+  }
+}
+
 // ---- FIFO batches ------------------------------------------------------------------------------
 
 // A batch laid out as a sensor's FIFO (gyro first, big-endian, the axes in another order, padding)

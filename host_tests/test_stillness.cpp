@@ -152,7 +152,7 @@ TEST(StillnessDetector, GyroThresholdFollowsTheMovesDouble) {
 }
 
 // A glitch is refused before anything changes: the sub-block that saw it goes on exactly as one
-// that did not; a saturated reading is motion, never a glitch. Both accumulators, float and
+// that did not; a saturated reading is motion, never a glitch. Both arithmetics, float and
 // 16-bit counts.
 template <typename Scalar, class Acc, class MakeInput>
 void glitch_leaves_no_trace(const MakeInput& input) {

@@ -126,7 +126,8 @@ class Segmenter {
   // One checked sample: a reading in the scalar type or a frame of 16-bit counts (integer work
   // only, but once a sub-block). c: what the front end made of it: the step after the previous
   // one, 0 if the stream starts here; whether the accelerometer says nothing; the temperature.
-  // A stream is either readings or frames: one kind from start() on. False: a glitch, nothing
+  // A stream is readings or frames, one kind at a time: a sample of the other kind drops the open
+  // sub-block and goes on in its own arithmetic (SubBlock::add()). False: a glitch, nothing else
   // changed.
   template <class Input, class Sink>
   __attribute__((always_inline)) bool add(const Input& x, const CheckedSample<Scalar>& c,
@@ -227,7 +228,7 @@ class Segmenter {
     return block_.n > 0 ? block_.t_begin : sub_begin;
   }
 
-  // The accumulators start a sub-block with the detector's limits and the rotation bound. A new
+  // The accumulator starts a sub-block with the detector's limits and the rotation bound. A new
   // bias moves what is held first.
   void open_sub_block() {
     if (bias_pending_) {
@@ -370,7 +371,7 @@ class Segmenter {
   std::uint32_t interval_us_ = 0;   // the same, to the microsecond (0: none yet)
   Scalar bound_angle_ = Scalar(0);  // the segment bound energy_max_ was worked out for
   Scalar weight_ = Scalar(0);       // one sample's weight in the moving averages at interval_
-  bool mean_follows_ = false;       // the detector's mean is the accumulators' moving mean
+  bool mean_follows_ = false;       // the detector's mean is the accumulator's moving mean
   std::uint32_t block_us_ = 0, trim_us_ = 0;
   Block block_{};
   DelayLine<Scalar, DelayBlocks> delay_{};

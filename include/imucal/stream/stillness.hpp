@@ -93,7 +93,7 @@ class StillnessDetector {
   }
   // The accelerometer's moving mean (raw), where the last sub-block left it.
   const Vector3<Scalar>& moving_mean() const { return mean_; }
-  // The moving averages' values at start() (the sub-block accumulators carry them on).
+  // The moving averages' values at start() (the sub-block accumulator carries them on).
   Scalar start_accel() const { return var0_; }
   Scalar start_energy() const { return energy0_; }
 

@@ -112,7 +112,7 @@ struct SubBlockTemperature {
 };
 
 // A sub-block that ended because a sample's state differed (the sample began the next one): the
-// accumulators keep it here until the segmenter takes it, once.
+// accumulator keeps it here until the segmenter takes it, once.
 template <typename Scalar>
 struct FinishedSubBlock {
   SubBlockStats<Scalar> stats{};
@@ -230,6 +230,12 @@ class FloatSums {
     mean_ = mean;
     va_ = accel;
     ee_ = energy;
+  }
+  void averages(Vector3<Scalar>& mean, Scalar& accel, Scalar& energy,
+                const SubBlockLimits<Scalar>& /*l*/) const {
+    mean = mean_;
+    accel = va_;
+    energy = ee_;
   }
   void clear(const SubBlockLimits<Scalar>& l) {
     sums_ = Sums{};
@@ -390,6 +396,13 @@ class RawSums {
     va_q8_ = static_cast<std::int32_t>(
         to_u32_limit(Scalar(256) * accel / (Scalar(1) - weight(l)), 0x7FFFFFFFu));
     ee_q4_ = static_cast<std::int32_t>(to_u32_limit(Scalar(16) * energy, 0x7FFFFFFFu));
+  }
+  // set_averages()'s inverse.
+  void averages(Vector3<Scalar>& mean, Scalar& accel, Scalar& energy,
+                const SubBlockLimits<Scalar>& l) const {
+    for (int i = 0; i < 3; ++i) mean(i) = static_cast<Scalar>(mean_q8_[i]) * Scalar(1.0 / 256);
+    accel = static_cast<Scalar>(va_q8_) * (Scalar(1) - weight(l)) * Scalar(1.0 / 256);
+    energy = static_cast<Scalar>(ee_q4_) * Scalar(1.0 / 16);
   }
   // Written out member by member: a loop here becomes a call to memset, costlier than the stores.
   void clear(const SubBlockLimits<Scalar>& /*l*/) {
@@ -637,7 +650,8 @@ class SubBlock {
   void release_done() { done_.release(); }
 
   // One sample, step_us after the previous one (0: none before it). False: a glitch (its
-  // accelerometer reading beyond the glitch limit): nothing changed.
+  // accelerometer reading beyond the glitch limit): nothing changed, but a sample of the other
+  // kind has switched the stream's kind first (become()).
   __attribute__((always_inline)) bool add(const ImuSample<Scalar>& x, std::uint32_t step_us,
                                           bool acc_saturated) {
     if (raw_ || !known_) become(false);
@@ -715,13 +729,20 @@ class SubBlock {
   }
 
   // The stream's kind: readings (false) or frames (true). A stream that changes kind drops the
-  // open sub-block and starts the new kind's arithmetic from the current limits.
+  // open sub-block and starts the new kind's arithmetic from the current limits, with the moving
+  // averages where the old kind left them.
   void become(bool raw) {
     if (known_) {
+      Vector3<Scalar> mean = Vector3<Scalar>::Zero();
+      Scalar accel = Scalar(0), energy = Scalar(0);
+      if (raw_)
+        raw_sums_.averages(mean, accel, energy, lim_);
+      else
+        float_sums_.averages(mean, accel, energy, lim_);
       if (raw) raw_sums_.stale();
-      raw_ = raw;
-      SubBlockLimits<Scalar> l = lim_;
+      const SubBlockLimits<Scalar> l = lim_;
       known_ = false;
+      set_averages(mean, accel, energy);
       start(l);
       forget_rate();
     }
