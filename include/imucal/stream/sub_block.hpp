@@ -685,13 +685,13 @@ class SubBlock {
     k.follow_energy(r, h);
     const bool still =
         !acc_saturated && k.accel_still(lim_) && (!use_gyro_ || k.energy_still(lim_));
-    if (n_ > 0 && still != sub_still_) {
+    if (n_ > 0 && still != still_) {
       done_.stats = finish(k);
       done_.full = true;
       k.clear(lim_);
       clear();
     }
-    sub_still_ = still_ = still;
+    still_ = still;
     if (!acc_saturated) {
       k.sum_accel(x, cue);
       ++n_acc_;
@@ -712,7 +712,7 @@ class SubBlock {
   template <class Kind>
   SubBlockStats<Scalar> finish(const Kind& k) const {
     SubBlockStats<Scalar> s;
-    s.still = sub_still_;
+    s.still = still_;
     s.n = n_;
     s.n_acc = n_acc_;
     s.intervals = intervals_;
@@ -760,7 +760,7 @@ class SubBlock {
   std::uint32_t n_ = 0, n_acc_ = 0, intervals_ = 0, duration_us_ = 0;
   std::uint32_t t_begin_ = 0, t_end_ = 0;
   SubBlockTemperature temp_{};
-  bool known_ = false, raw_ = false, still_ = true, sub_still_ = true, use_gyro_ = true;
+  bool known_ = false, raw_ = false, still_ = true, use_gyro_ = true;
   detail::RawSums<Scalar> raw_sums_{};
   detail::FloatSums<Scalar> float_sums_{};
   SubBlockLimits<Scalar> lim_{};
