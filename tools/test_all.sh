@@ -42,8 +42,8 @@ require_xsens=OFF
 # host-asan: the host tests again, built by Clang (a second compiler, which also compiles Eigen's
 # templates in under half GCC's time), under AddressSanitizer and UndefinedBehaviorSanitizer
 # (leaks included; the first finding aborts the test), but the long numeric runs (simulated
-# protocols, noise statistics, lives: the test preset's filter), which reach no code the others do
-# not. RV32 leaves out the two the M4F and the host already hold (CMakePresets.json says which).
+# protocols, noise statistics, lives: not built, IMUCAL_NUMERIC_RUNS), which reach no code the
+# others do not. RV32 leaves out the two the M4F and the host already hold (CMakePresets.json says which).
 # Without debug information (a third of the compile time of Eigen's templates); host-asan keeps
 # its line tables for the sanitizers' reports.
 for preset in host host-asan m4f m7 m33 m3 m0plus rv32; do
