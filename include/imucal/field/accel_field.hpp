@@ -179,8 +179,9 @@ class AccelField {
           const Scalar unit = k >= kBiasX ? Scalar(1) / g_counts_
                                           : (k >= kScaleX ? settings.accel_per_m_s2 : Scalar(1));
           theta0_(k) = prior->params(k) * unit;
-          // A sigma of 0 is a parameter the protocol held: it keeps its prior sigma.
-          if (prior->sigma(k) > Scalar(0)) sigma0_(k) = prior->sigma(k) * unit;
+          // A sigma of 0 is a parameter the protocol held: it keeps its prior sigma, as does
+          // one beyond it (a record that knows less than the settings, or a corrupted one).
+          sigma0_(k) = stated_sigma(prior->sigma(k) * unit, sigma0_(k));
         }
       } else {
         result = Status::kNonFiniteInput;
@@ -194,10 +195,9 @@ class AccelField {
       theta0_.template segment<3>(kSlopeX) = model->accel.b1 * unit;
       theta0_.template segment<3>(kCurvatureX) = model->accel.b2 * unit;
       for (int i = 0; i < 3; ++i) {
-        if (model->accel.b1_sigma(i) > Scalar(0))
-          sigma0_(kSlopeX + i) = model->accel.b1_sigma(i) * unit;
-        if (model->accel.b2_sigma(i) > Scalar(0))
-          sigma0_(kCurvatureX + i) = model->accel.b2_sigma(i) * unit;
+        sigma0_(kSlopeX + i) = stated_sigma(model->accel.b1_sigma(i) * unit, sigma0_(kSlopeX + i));
+        sigma0_(kCurvatureX + i) =
+            stated_sigma(model->accel.b2_sigma(i) * unit, sigma0_(kCurvatureX + i));
       }
       if (model->min_c <= model->max_c) {
         min_c_ = model->min_c;
@@ -442,9 +442,12 @@ class AccelField {
     bool worse = false;
   };
 
-  // The published bias's variance per axis at t itself (it grows beyond the range; g^2).
+  // The published bias's variance per axis at t itself (it grows beyond the range; g^2; infinite
+  // at an infinite or absurd temperature).
   Vector3<Scalar> bias_variance(Scalar t, bool doubted = false) const {
     const Scalar u = offset(t);
+    if (!(std::fabs(u) <= kMaxTemperatureOffset<Scalar>))
+      return Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::infinity());
     const Scalar h[3] = {Scalar(1), u, u * u};
     Vector3<Scalar> out;
     for (int i = 0; i < 3; ++i) {

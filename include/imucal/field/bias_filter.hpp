@@ -42,6 +42,20 @@ Scalar clamped_temperature_offset(Scalar t, Scalar t0, Scalar lo, Scalar hi, Sca
   return (t < a ? a : (t > b ? b : t)) - t0;
 }
 
+// A prior's standard deviation as a model takes it: the stated one when it is positive and at
+// most the nominal one, else the nominal one (a stated sigma of 0 is a parameter held fixed
+// where it was found, which says nothing of its uncertainty; one beyond the nominal knows less
+// than the settings do, or comes from a corrupted record, and squared may not even be finite).
+template <typename Scalar>
+Scalar stated_sigma(Scalar stated, Scalar nominal) {
+  return stated > Scalar(0) && stated <= nominal ? stated : nominal;
+}
+
+// The widest temperature offset a model's variance is evaluated at: far beyond any sensor's
+// range, and where (d^4 times a curvature's variance) is still finite.
+template <typename Scalar>
+constexpr Scalar kMaxTemperatureOffset = Scalar(4096);
+
 template <typename Scalar>
 struct BiasFilter {
   Vector3<Scalar> c = Vector3<Scalar>::Zero();  // bias at reference_c (added, raw units)
@@ -96,9 +110,13 @@ struct BiasFilter {
   Scalar variance(Scalar d) const { return h(d).dot(p * h(d)); }
 
   // The model at temperature t (NaN: at T0), clamped to the range seen plus margin; its variance
-  // at t itself (it grows beyond the range).
+  // at t itself (it grows beyond the range; infinite at an infinite or absurd temperature).
   Vector3<Scalar> at(Scalar t, Scalar margin) const { return value(clamped_offset(t, margin)); }
-  Scalar variance_at(Scalar t) const { return variance(offset(t)); }
+  Scalar variance_at(Scalar t) const {
+    const Scalar d = offset(t);
+    return std::fabs(d) <= kMaxTemperatureOffset<Scalar> ? variance(d)
+                                                         : std::numeric_limits<Scalar>::infinity();
+  }
 
   // The innovation's chi-square (three degrees of freedom) of a measurement z of the bias at
   // temperature t, each axis of variance r.

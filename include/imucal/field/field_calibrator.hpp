@@ -140,15 +140,17 @@ enum class FieldEventKind : std::uint8_t {
 
 enum class FieldReason : std::uint8_t {
   kNone = 0,
-  kTurning = 1,       // the gravity direction turned during the rest
-  kInconsistent = 2,  // outside the gate of the filter's prediction
-  kUnconfirmed = 3,   // a held rest that the next rest after motion did not confirm
-  kSignificant = 4,   // (kUpdated) the filter differs significantly and is better
-  kChange = 5,        // (kUpdated) after a change
-  kFirst = 6,         // (kUpdated) the first publication
-  kBetter = 7,        // (kUpdated) the filter's variance is a small share of the published one's
-  kImplausible = 8,   // (kRejected, the accelerometer's or the magnetometer's) its reading is no
-                      // gravity, or no field of the expected strength, as set up
+  kTurning = 1,        // the gravity direction turned during the rest
+  kInconsistent = 2,   // outside the gate of the filter's prediction
+  kUnconfirmed = 3,    // a held rest that the next rest after motion did not confirm
+  kSignificant = 4,    // (kUpdated) the filter differs significantly and is better
+  kChange = 5,         // (kUpdated) after a change
+  kFirst = 6,          // (kUpdated) the first publication
+  kBetter = 7,         // (kUpdated) the filter's variance is a small share of the published one's
+  kImplausible = 8,    // (kRejected, the accelerometer's or the magnetometer's) its reading is no
+                       // gravity, or no field of the expected strength, as set up
+  kNoTemperature = 9,  // (kRejected) a rest without a temperature in a run that gave them (the
+                       // sensor failed): the models cannot place it
 };
 
 inline const char* field_event_name(FieldEventKind k) {
@@ -184,6 +186,8 @@ inline const char* field_reason_name(FieldReason r) {
       return "first";
     case FieldReason::kImplausible:
       return "implausible";
+    case FieldReason::kNoTemperature:
+      return "no_temperature";
     default:
       return "better";
   }
@@ -222,10 +226,11 @@ struct FieldEvent {
 
 // How many rests went where.
 struct FieldCounts {
-  std::uint32_t rests = 0;    // handed out by the rest monitor
-  std::uint32_t taken = 0;    // into the filter
-  std::uint32_t turning = 0;  // refused: gravity turned
-  std::uint32_t held = 0;     // outside the gate
+  std::uint32_t rests = 0;           // handed out by the rest monitor
+  std::uint32_t taken = 0;           // into the filter
+  std::uint32_t turning = 0;         // refused: gravity turned
+  std::uint32_t no_temperature = 0;  // refused: no temperature, in a run that gave them
+  std::uint32_t held = 0;            // outside the gate
   std::uint32_t unconfirmed = 0;
   std::uint32_t changes = 0;
   std::uint32_t updates = 0;  // publications
@@ -242,6 +247,7 @@ struct FieldCounts {
   std::uint32_t mag_changes = 0;
   std::uint32_t mag_updates = 0;
   std::uint32_t mag_implausible = 0;
+  std::uint32_t mag_glitches = 0;  // readings refused by add_mag() as beyond any field (kGlitch)
   // The gyro's misalignment and scale: moves taken, refused (outside the gate), publications,
   // changes found (refused moves that one new matrix explains; each also a publication).
   std::uint32_t gyro_moves = 0;
@@ -325,8 +331,8 @@ class FieldCalibrator {
                                 prior->gyro.params(kGyroBiasZ));
         const Vector3<Scalar> sb(prior->gyro.sigma(kGyroBiasX), prior->gyro.sigma(kGyroBiasY),
                                  prior->gyro.sigma(kGyroBiasZ));
-        Scalar sigma = sb.maxCoeff();
-        if (!(sigma > Scalar(0))) sigma = settings.bias_sigma * k;
+        // Each stated sigma up to the nominal one (bias_filter.hpp, stated_sigma()).
+        const Scalar sigma = stated_sigma(sb.maxCoeff(), settings.bias_sigma * k);
         Scalar t0 = prior->has_temperature && std::isfinite(prior->temperature_c)
                         ? prior->temperature_c
                         : Scalar(25);
@@ -340,12 +346,10 @@ class FieldCalibrator {
           t0 = temperature->reference_c;
           c = temperature->gyro.b0;
           slope = temperature->gyro.b1;
-          const Scalar s1 = temperature->gyro.b1_sigma.maxCoeff();
-          if (s1 > Scalar(0) && std::isfinite(s1)) slope_sigma = s1;
+          slope_sigma = stated_sigma(temperature->gyro.b1_sigma.maxCoeff(), slope_sigma);
           if (temperature->order == 2 && all_finite(temperature->gyro.b2)) {
             curvature = temperature->gyro.b2;
-            const Scalar s2 = temperature->gyro.b2_sigma.maxCoeff();
-            if (s2 > Scalar(0) && std::isfinite(s2)) curvature_sigma = s2;
+            curvature_sigma = stated_sigma(temperature->gyro.b2_sigma.maxCoeff(), curvature_sigma);
           }
         }
         filter_.start(c, sigma, slope, slope_sigma, curvature, curvature_sigma, t0);
@@ -395,6 +399,15 @@ class FieldCalibrator {
         result = Status::kNonFiniteInput;
       mag_field_ut_ = m.gravity;
       mag_g_counts_ = m.accel_per_m_s2 * m.gravity;
+      // No field the settings allow reads beyond twice its strength plus five sigmas of hard
+      // iron and of a magnetisation change: past that, a saturated sensor or a magnet at it.
+      const MagFieldSettings<Scalar>& ms = settings.mag;
+      const Scalar reach =
+          (Scalar(2) * ms.field_ut + Scalar(5) * (ms.hard_iron_sigma_ut + ms.change_sigma_ut)) *
+          ms.counts_per_ut;
+      mag_max2_ = reach > Scalar(0) && std::isfinite(reach * reach)
+                      ? reach * reach
+                      : std::numeric_limits<Scalar>::infinity();
     }
     {  // the gyro's misalignment and scale: from the prior's where it states them
       using GyroVector9 = typename GyroField<Scalar>::Vector;
@@ -413,7 +426,8 @@ class FieldCalibrator {
         const Scalar stated = matrix && prior != nullptr && succeeded(prior->gyro.status)
                                   ? base_.gyro.sigma(i)
                                   : std::numeric_limits<Scalar>::quiet_NaN();
-        sigma9(i) = std::isfinite(stated) && stated > Scalar(0) ? stated : nominal;
+        sigma9(i) = stated_sigma(stated, nominal);
+        if (stated > nominal) base_.gyro.sigma(i) = nominal;  // the output says what it uses
       }
       if (gyro_field_.start(settings.gyro_matrix, prior9, sigma9) != Status::kOk &&
           result == Status::kOk)
@@ -435,7 +449,7 @@ class FieldCalibrator {
   Status add(const ImuSample<Scalar>& s) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add(s);
-    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us, st);
+    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us);
     return st;
   }
 
@@ -443,15 +457,15 @@ class FieldCalibrator {
   Status add_raw(const RawFrame& f, Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add_raw(f, temperature);
-    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us, st);
+    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us);
     return st;
   }
 
   // A batch of frames as the sensor's FIFO delivers them (stream/fifo.hpp: where the readings are
   // in each frame, when each was taken), and the temperature read with the batch (NaN: none),
-  // which goes with its first frame. Each frame gets the status add_raw() would give it: counted
-  // in the result, and written to statuses[k] if given (count entries). An invalid layout or a
-  // null buffer refuses every frame with kInvalidArgument (counted in the rest monitor's
+  // which goes with its first frame taken. Each frame gets the status add_raw() would give it:
+  // counted in the result, and written to statuses[k] if given (count entries). An invalid layout
+  // or a null buffer refuses every frame with kInvalidArgument (counted in the rest monitor's
   // samples_refused()). A magnetometer reading belongs between the batches: add_mag() after the
   // batch it arrived with.
   FifoResult add_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
@@ -481,10 +495,17 @@ class FieldCalibrator {
   }
 
   // A magnetometer reading (raw units) that arrived with the latest sample: it shows a turn
-  // about the vertical that the gyro and the accelerometer cannot tell from a bias. kNonFiniteInput
-  // (nothing taken) for a NaN or infinity.
+  // about the vertical that the gyro and the accelerometer cannot tell from a bias. Nothing taken:
+  // kNonFiniteInput for a NaN or infinity, kGlitch for a reading beyond any field the settings
+  // allow (a saturated sensor, a magnet at it; with the magnetometer's scale set), and
+  // kInvalidArgument without a valid start().
   Status add_mag(const Vector3<Scalar>& m) {
+    if (!valid_) return Status::kInvalidArgument;
     if (!all_finite(m)) return Status::kNonFiniteInput;
+    if (m.squaredNorm() > mag_max2_) {
+      ++counts_.mag_glitches;
+      return Status::kGlitch;
+    }
     look_at_mag(m);
     if (!monitor_.resting()) {
       mag_sum_.setZero();
@@ -699,6 +720,7 @@ class FieldCalibrator {
     bool steady = false;        // the piece before in its rest agreed: same rate, same gravity
     bool verified = false;      // ... and the same field (no turn about the vertical either)
     bool lead = false;          // the first piece of a rest after motion
+    bool unplaced = false;      // no temperature, in a run that gives them: not used
     Scalar turned = Scalar(0);  // above 1: it turned (the rate over its bound) from a neighbour
     Scalar r = Scalar(0);       // each axis's variance of z
     Scalar t = Scalar(0);       // temperature (NaN: none)
@@ -758,29 +780,40 @@ class FieldCalibrator {
       set_detector_bias();
   }
 
-  // The rest monitor was reset: its counts of rests and temperatures start again from zero.
+  // The rest monitor was reset: its counts of rests, temperatures and clock resets start again
+  // from zero.
   void monitor_restarted() {
-    rests_seen_ = temps_seen_ = 0;
+    rests_seen_ = temps_seen_ = resets_seen_ = 0;
     temp_sum_seen_ = 0;
   }
 
-  void after_sample(std::uint32_t t_us, Status st) {
+  // The rests the monitor found since the last look.
+  void take_rests() {
+    if (monitor_.rests_found() == rests_seen_) return;
+    rests_seen_ = monitor_.rests_found();
+    RestSummary<Scalar> r;
+    while (monitor_.take(r)) on_rest(r);
+  }
+
+  void after_sample(std::uint32_t t_us) {
     took_ = false;
-    if (!clock_started_) {
-      clock_started_ = true;
-    } else if (st != Status::kClockReset) {
+    // A clock reset since the last sample taken (this sample's, or one a refused sample saw):
+    // the time between is unknown and not counted, and the rests it ended, timed on the old
+    // clock, are placed before the clock moves on.
+    const std::uint32_t resets = monitor_.stream_counts().clock_resets;
+    if (resets != resets_seen_) {
+      resets_seen_ = resets;
+      take_rests();
+    } else if (clock_started_) {
       elapsed_us_ += static_cast<std::uint32_t>(t_us - last_t_us_);
     }
+    clock_started_ = true;
     last_t_us_ = t_us;
     // The temperatures the front end took (it sums them in fixed point), smoothed once a batch.
     const TemperatureMean<Scalar>& readings = monitor_.temperatures();
     if (readings.count() != temps_seen_ && elapsed_us_ - temperature_us_ >= kTemperatureBatchUs)
       smooth_temperature(readings);
-    if (monitor_.rests_found() != rests_seen_) {
-      rests_seen_ = monitor_.rests_found();
-      RestSummary<Scalar> r;
-      while (monitor_.take(r)) on_rest(r);
-    }
+    take_rests();
     if (pending_ && !monitor_.resting()) {  // the rest is over: its last piece is judged
       judge(pending_piece_);
       pending_ = false;
@@ -1002,6 +1035,15 @@ class FieldCalibrator {
     p.acc_var = accel_noise_axis_ / static_cast<Scalar>(r.samples);
     p.r = noise_axis_ / static_cast<Scalar>(r.samples) + q_ * r.duration_s / Scalar(3) + floor2_;
     p.t = r.has_temperature ? r.temperature_c : std::numeric_limits<Scalar>::quiet_NaN();
+    // A run that gives temperatures but none with this rest (a sensor read more slowly than rests
+    // come, or one that failed): the smoothed temperature while it is recent; else the models
+    // cannot place the rest (at the reference temperature it would read as a change).
+    if (std::isnan(p.t) && !std::isnan(temperature_)) {
+      if (elapsed_us_ - temperature_us_ <= kTemperatureStaleUs)
+        p.t = temperature_;
+      else
+        p.unplaced = true;
+    }
     p.end_us = elapsed_at(r.end_us);
     p.mid_us = elapsed_at(r.begin_us / 2u + r.end_us / 2u + (r.begin_us & r.end_us & 1u));
     if (r.end_us < r.begin_us) p.mid_us = p.end_us;  // the timer wrapped inside the rest
@@ -1011,7 +1053,7 @@ class FieldCalibrator {
     p.end_raw = r.end_us;
     // A rest that disagrees with the published bias widens its stated sigma at once, until the
     // rest is judged (a knock shows here a piece before it can be confirmed).
-    if (has_published_) {
+    if (has_published_ && !p.unplaced) {
       const Vector3<Scalar> nu = p.z - published_.value(published_.offset(p.t));
       const Scalar var = published_.variance(published_.offset(p.t)) + p.r;
       if (nu.squaredNorm() / var > settings_.gate_chi2) {
@@ -1125,6 +1167,11 @@ class FieldCalibrator {
     if (p.turned > Scalar(1)) {
       event(FieldEventKind::kRejected, FieldReason::kTurning, p.t, p.turned);
       ++counts_.turning;
+      return;
+    }
+    if (p.unplaced) {
+      event(FieldEventKind::kRejected, FieldReason::kNoTemperature, p.t, Scalar(0));
+      ++counts_.no_temperature;
       return;
     }
     const bool walk_ends = from_rest && p.group == move_from_.group + 1u && gyro_field_.walking();
@@ -1322,6 +1369,7 @@ class FieldCalibrator {
     event(FieldEventKind::kUpdated, why, t, chi2);
     if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
       monitor_.reset(monitor_settings(true));
+      monitor_.continue_after(last_t_us_);  // the same stream: a sample behind is still refused
       update_move_keeping();
       monitor_restarted();
       gyro_cue_ = true;
@@ -1537,8 +1585,12 @@ class FieldCalibrator {
   // The readings are smoothed once every kTemperatureBatchUs, short beside temperature_seconds:
   // the monitor's temperatures().count() and sum_q() at the last smoothing.
   static constexpr std::uint64_t kTemperatureBatchUs = 500000;
+  // The smoothed temperature stands for a rest without a reading of its own this long after the
+  // last reading.
+  static constexpr std::uint64_t kTemperatureStaleUs = 60000000;
   std::int64_t temp_sum_seen_ = 0;
   std::uint32_t temps_seen_ = 0;
+  std::uint32_t resets_seen_ = 0;  // the monitor's clock resets counted so far
   bool clock_started_ = false;
   std::uint32_t last_t_us_ = 0;
   std::uint64_t elapsed_us_ = 0, filter_time_us_ = 0;
@@ -1588,6 +1640,7 @@ class FieldCalibrator {
       Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
   MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
   Scalar mag_field_ut_ = Scalar(50);   // the field strength the model's norm is
+  Scalar mag_max2_ = std::numeric_limits<Scalar>::infinity();  // |reading|^2 beyond: a glitch
   // The gyro's misalignment and scale, the piece a move into the next taken one starts from, the
   // move under way's rest (its timestamps) and its two ends' gravity directions.
   GyroField<Scalar> gyro_field_{};

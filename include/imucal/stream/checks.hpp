@@ -447,9 +447,9 @@ class StreamChecks {
         if (result == Status::kOk) result = last_event_ = Status::kTemperatureImplausible;
       }
     }
-    if (acc_saturated) {
+    if (acc_saturated) {  // a note: a gap or a clock reset with it is what the status says
       ++counts_.accel_saturated;
-      result = last_event_ = Status::kAccelSaturated;
+      if (result == Status::kOk) result = last_event_ = Status::kAccelSaturated;
     }
     if (check_rate_ &&
         rate_.off(static_cast<std::uint32_t>(step), nominal_rate_, rate_tolerance_)) {
@@ -483,6 +483,13 @@ class StreamChecks {
 
   // The next sample starts the stream again (no interval to the one before).
   void restart() { restart_ = true; }
+  // After reset(): the next sample is ordered against t_us, a time already taken (a consumer
+  // that starts the checks again within one stream), and starts the stream again.
+  void continue_after(std::uint32_t t_us) {
+    t_prev_ = t_us;
+    have_prev_ = true;
+    restart_ = true;
+  }
   // The latest notable event of the stream (the consumer's own too, through note()).
   Status last_event() const { return last_event_; }
   Status note(Status s) { return last_event_ = s; }

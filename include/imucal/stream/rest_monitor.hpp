@@ -124,6 +124,10 @@ class RestMonitor {
     }
     return valid_ ? Status::kOk : Status::kInvalidArgument;
   }
+  // After reset() within one stream (new settings mid-stream): the next sample is ordered against
+  // t_us, the latest time taken, so a sample behind it is still refused (kTimeBackwards) or
+  // seen as a clock reset; it starts the stream again.
+  void continue_after(std::uint32_t t_us) { checks_.continue_after(t_us); }
 
   // Moves are kept (true, the default when the settings bound them) or not: then blocks close by
   // duration and stillness only, as without moves, and nothing is handed on (an owner that cannot
