@@ -107,6 +107,9 @@ TEST(FieldCalibrator, SettingsOutOfRangeRefuseEverySample) {
   s.better_ratio = 1.5f;
   EXPECT_EQ(f.start(s), Status::kInvalidArgument);
   s = plain_settings();
+  s.curvature_sigma = kNaN;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  s = plain_settings();
   s.gyro_matrix.gate_chi2 = -1.0f;
   EXPECT_EQ(f.start(s), Status::kInvalidArgument);
   s = plain_settings();
@@ -1587,6 +1590,19 @@ TEST(FieldFaults, AMagnetometerReadingBeyondAnyFieldIsRefused) {
   EXPECT_EQ(counts[1].turning, counts[0].turning);
   EXPECT_EQ(counts[1].taken, counts[0].taken);
   EXPECT_EQ(counts[1].mag_glitches, 1u);
+  // A stored hard iron far beyond the settings' sigma (600 uT: a speaker's magnet beside the
+  // sensor): the readings around it are fields; one at full scale still is not.
+  MagCalibration<float> stored;
+  stored.status = Status::kOk;
+  stored.soft_iron = Matrix3<float>::Identity() * 0.1f;  // uT per count
+  stored.hard_iron = Vector3<float>(-6000.0f, 0.0f, 0.0f);
+  stored.hard_iron_sigma.setConstant(5.0f);
+  stored.soft_iron_sigma.setConstant(1e-3f);
+  stored.field_ut = 49.0f;
+  static FieldCalibrator<float> known;
+  ASSERT_EQ(known.start(settings, nullptr, nullptr, &stored), Status::kOk);
+  EXPECT_EQ(known.add_mag(Vector3<float>(6200.0f, 0.0f, -450.0f)), Status::kOk);
+  EXPECT_EQ(known.add_mag(Vector3<float>(32767.0f, 32767.0f, 32767.0f)), Status::kGlitch);
 }
 
 }  // namespace

@@ -540,6 +540,32 @@ TEST(RestMonitor, MovesBetweenRestsComeWholeAsSegments) {
   }
 }
 
+// New settings within one stream (reset_in_stream()): a sample behind the latest one is still
+// refused, where a plain reset() starts a new stream that takes it.
+TEST(RestMonitor, AResetWithinTheStreamKeepsItsTimeOrder) {
+  RestMonitorSettings<float> set;
+  set.accel_noise = 3e-4f;
+  set.gyro_noise = 4e-6f;
+  RestMonitor<float> m(set);
+  ImuSample<float> s;
+  s.acc = Vector3<float>(0.1f, -0.2f, 9.8f);
+  for (std::uint32_t k = 1; k <= 10; ++k) {
+    s.t_us = 10000u * k;
+    s.acc(0) = 0.1f + 0.001f * static_cast<float>(k % 3);
+    ASSERT_EQ(m.add(s), Status::kOk);
+  }
+  ASSERT_EQ(m.reset_in_stream(set), Status::kOk);
+  s.t_us = 60000u;  // behind the latest, 100 ms
+  EXPECT_EQ(m.add(s), Status::kTimeBackwards);
+  s.t_us = 100000u;
+  EXPECT_EQ(m.add(s), Status::kTimeRepeated);
+  s.t_us = 110000u;
+  EXPECT_EQ(m.add(s), Status::kOk);
+  ASSERT_EQ(m.reset(set), Status::kOk);
+  s.t_us = 60000u;
+  EXPECT_EQ(m.add(s), Status::kOk);
+}
+
 TEST(RestMonitor, GapEndsTheRestAndSettingsAreChecked) {
   RestMonitorSettings<float> set;
   RestMonitor<float> m(set);  // thresholds not set

@@ -433,8 +433,11 @@ void print_field_summary(const FieldRun& run, const Options& o, std::FILE* out) 
   const FieldCounts& c = run.counts;
   std::fprintf(out,
                "rests    %u found: %u taken, %u refused as turning, %u held (outside the gate), "
-               "%u unconfirmed\n",
+               "%u unconfirmed",
                c.rests, c.taken, c.turning, c.held, c.unconfirmed);
+  if (c.no_temperature > 0)  // a temperature sensor that stopped reading
+    std::fprintf(out, ", %u refused without a temperature", c.no_temperature);
+  std::fprintf(out, "\n");
   std::fprintf(out, "changes  %u detected; %u updates published\n", c.changes, c.updates);
   if (run.published) {
     const Array3 dps = scaled(run.bias, to_dps);

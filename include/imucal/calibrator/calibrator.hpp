@@ -140,7 +140,8 @@ class Calibrator {
           return sample_taken(s) || s == Status::kInitialRestDisturbed ||
                  s == Status::kCapacityExceeded;
         },
-        [this] { return checks_.refuse(Status::kInvalidArgument); });
+        [this] { return checks_.refuse(Status::kInvalidArgument); },
+        [this] { return checks_.temperatures_read(); });
   }
 
   Progress progress() const {

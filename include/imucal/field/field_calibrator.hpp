@@ -87,9 +87,10 @@ struct FieldSettings : RestMonitorSettings<Scalar> {
   }
   Scalar gyro_per_rad_s = std::numeric_limits<Scalar>::quiet_NaN();  // raw units per rad/s
   // The prior without a stored calibration: bias 0 with this sigma, slope 0 with its sigma.
-  Scalar bias_sigma = Scalar(0.0524);       // rad/s (3 deg/s)
+  Scalar bias_sigma = Scalar(0.0524);  // rad/s (3 deg/s)
+  // 0: not learned (a stored calibration's slope or curvature is kept as it is; without one, 0).
   Scalar slope_sigma = Scalar(5.2e-4);      // rad/s per deg C (0.03 deg/s/degC)
-  Scalar curvature_sigma = Scalar(1.7e-5);  // rad/s per deg C^2 (0.001 deg/s/degC^2; 0: linear)
+  Scalar curvature_sigma = Scalar(1.7e-5);  // rad/s per deg C^2 (0.001 deg/s/degC^2)
   Scalar walk = Scalar(5.2e-6);             // rate random walk, rad/s/sqrt(s) (3e-4 deg/s/sqrt s)
   Scalar floor = Scalar(1.7e-5);            // a rest mean's sigma is at least this (rad/s)
   Scalar change_sigma = Scalar(0.0175);     // a knock's step: its prior sigma (rad/s, 1 deg/s)
@@ -399,15 +400,7 @@ class FieldCalibrator {
         result = Status::kNonFiniteInput;
       mag_field_ut_ = m.gravity;
       mag_g_counts_ = m.accel_per_m_s2 * m.gravity;
-      // No field the settings allow reads beyond twice its strength plus five sigmas of hard
-      // iron and of a magnetisation change: past that, a saturated sensor or a magnet at it.
-      const MagFieldSettings<Scalar>& ms = settings.mag;
-      const Scalar reach =
-          (Scalar(2) * ms.field_ut + Scalar(5) * (ms.hard_iron_sigma_ut + ms.change_sigma_ut)) *
-          ms.counts_per_ut;
-      mag_max2_ = reach > Scalar(0) && std::isfinite(reach * reach)
-                      ? reach * reach
-                      : std::numeric_limits<Scalar>::infinity();
+      set_mag_reach();
     }
     {  // the gyro's misalignment and scale: from the prior's where it states them
       using GyroVector9 = typename GyroField<Scalar>::Vector;
@@ -476,7 +469,8 @@ class FieldCalibrator {
         data, count, layout, timing, temperature, statuses,
         [this](const RawFrame& f, Scalar t) { return add_raw(f, t); },
         [](Status s) { return sample_taken(s); },
-        [this] { return valid_ ? monitor_.refuse_unreadable() : Status::kInvalidArgument; });
+        [this] { return valid_ ? monitor_.refuse_unreadable() : Status::kInvalidArgument; },
+        [this] { return monitor_.temperatures_read(); });
   }
 
   // The stream ended (or the caller wants what is there now): the rest in progress ends and is
@@ -699,7 +693,8 @@ class FieldCalibrator {
   static bool check(const Settings& s) {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
     return positive(s.gyro_per_rad_s) && positive(s.bias_sigma) && std::isfinite(s.slope_sigma) &&
-           s.slope_sigma >= Scalar(0) && std::isfinite(s.walk) && s.walk >= Scalar(0) &&
+           s.slope_sigma >= Scalar(0) && std::isfinite(s.curvature_sigma) &&
+           s.curvature_sigma >= Scalar(0) && std::isfinite(s.walk) && s.walk >= Scalar(0) &&
            std::isfinite(s.floor) && s.floor >= Scalar(0) && positive(s.change_sigma) &&
            positive(s.turn_rate_max) && positive(s.gate_chi2) && positive(s.publish_chi2) &&
            std::isfinite(s.confirm_seconds) && std::isfinite(s.change_seconds) &&
@@ -831,6 +826,7 @@ class FieldCalibrator {
         model_published(accel_, FieldSensor::kAccel, counts_.accel_updates);
     } else if (mag_.busy() && mag_.step() == AccelFieldEvent::kUpdated) {
       model_published(mag_, FieldSensor::kMag, counts_.mag_updates);
+      set_mag_reach();
       reset_dip();  // the dip through the new model, from its rests
     }
   }
@@ -844,6 +840,23 @@ class FieldCalibrator {
     unsaved_ = true;
     event(FieldEventKind::kUpdated, kWhy[r < 0 || r > 3 ? 0 : r], temperature_, m.last_chi2(),
           sensor);
+  }
+
+  // No field the settings allow reads beyond twice its strength plus five sigmas of hard iron
+  // and of a magnetisation change from the hard iron known (the stored or published one; raw
+  // counts): past that, a saturated sensor or a magnet at it. No bound without the
+  // magnetometer's scale.
+  void set_mag_reach() {
+    const MagFieldSettings<Scalar>& ms = settings_.mag;
+    Vector3<Scalar> hard_iron = Vector3<Scalar>::Zero();
+    mag_.bias(std::numeric_limits<Scalar>::quiet_NaN(), Scalar(0), hard_iron);
+    const Scalar reach =
+        (Scalar(2) * ms.field_ut + Scalar(5) * (ms.hard_iron_sigma_ut + ms.change_sigma_ut)) *
+            ms.counts_per_ut +
+        hard_iron.norm();
+    mag_max2_ = reach > Scalar(0) && std::isfinite(reach * reach)
+                    ? reach * reach
+                    : std::numeric_limits<Scalar>::infinity();
   }
 
   // The oldest rest piece waiting for the magnetometer's model.
@@ -1100,7 +1113,7 @@ class FieldCalibrator {
             p.verified = false;
           } else {
             p.steady = true;
-            if (pending_piece_.lead) widen_tail(pending_piece_, p);
+            if (pending_piece_.lead && !p.unplaced) widen_tail(pending_piece_, p);
           }
         }
         if (ratio > Scalar(1)) {
@@ -1368,8 +1381,7 @@ class FieldCalibrator {
     ++counts_.updates;
     event(FieldEventKind::kUpdated, why, t, chi2);
     if (!gyro_cue_) {  // the detector takes the gyro as a cue from the first publication on
-      monitor_.reset(monitor_settings(true));
-      monitor_.continue_after(last_t_us_);  // the same stream: a sample behind is still refused
+      monitor_.reset_in_stream(monitor_settings(true));  // a frame behind is still refused
       update_move_keeping();
       monitor_restarted();
       gyro_cue_ = true;

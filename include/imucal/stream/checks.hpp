@@ -483,18 +483,23 @@ class StreamChecks {
 
   // The next sample starts the stream again (no interval to the one before).
   void restart() { restart_ = true; }
-  // After reset(): the next sample is ordered against t_us, a time already taken (a consumer
-  // that starts the checks again within one stream), and starts the stream again.
-  void continue_after(std::uint32_t t_us) {
-    t_prev_ = t_us;
-    have_prev_ = true;
-    restart_ = true;
+  // As reset(), within one stream (new settings mid-stream): the next sample is still ordered
+  // against the latest one seen, so one behind it is refused or makes a clock reset; it starts
+  // the stream again.
+  void reset_in_stream(const StreamSettings<Scalar>& s) {
+    const bool had = have_prev_;
+    const std::uint32_t t = t_prev_;
+    reset(s);
+    have_prev_ = had;
+    t_prev_ = t;
   }
   // The latest notable event of the stream (the consumer's own too, through note()).
   Status last_event() const { return last_event_; }
   Status note(Status s) { return last_event_ = s; }
 
   const StreamCounts& counts() const { return counts_; }
+  // The temperatures read so far, usable or not (a change: the latest sample's was read).
+  std::uint32_t temperatures_read() const { return temperature_.count() + counts_.temperature_bad; }
   std::uint32_t refused() const { return refused_; }
   bool frozen() const { return frozen_; }
   // The running mean of the temperatures taken (TemperatureMean: sums elsewhere are relative

@@ -84,22 +84,23 @@ inline void count_fifo_status(FifoResult& r, Status s, bool taken) {
 }
 
 // A batch fed frame by frame: add(frame, temperature) gives each frame its status (the batch's
-// temperature goes with the first frame that reaches it: taken, or refused as a glitch after its
-// checks took the temperature; none with the others), taken(status) says whether the
+// temperature goes with each frame until one reads it: read() counts the temperatures the front
+// end has read, usable or not; none goes with the frames after), taken(status) says whether the
 // frame was taken, and refuse() refuses each frame of a batch whose layout is invalid or whose
 // buffer is null. Each status is counted in the result and written to statuses[k] if given
 // (count entries). What every calibrator's add_fifo() runs.
-template <typename Scalar, class Add, class Taken, class Refuse>
+template <typename Scalar, class Add, class Taken, class Refuse, class Read>
 FifoResult feed_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
                      const FifoTiming& timing, Scalar temperature, Status* statuses, Add&& add,
-                     Taken&& taken, Refuse&& refuse) {
+                     Taken&& taken, Refuse&& refuse, Read&& read) {
   FifoResult r;
   const bool ok = data != nullptr && layout.valid();
   Scalar t = temperature;
   for (std::uint32_t k = 0; k < count; ++k) {
+    const std::uint32_t before = read();
     const Status s = ok ? add(fifo_frame(data, k, layout, timing), t) : refuse();
+    if (read() != before) t = std::numeric_limits<Scalar>::quiet_NaN();
     const bool took = taken(s);
-    if (took || s == Status::kGlitch) t = std::numeric_limits<Scalar>::quiet_NaN();
     count_fifo_status(r, s, took);
     if (statuses != nullptr) statuses[k] = s;
   }

@@ -103,10 +103,21 @@ class RestMonitor {
 
   // Starts again with new settings. kInvalidArgument for settings out of range (then add()
   // refuses every sample until a valid reset).
-  Status reset(const RestMonitorSettings<Scalar>& settings) {
+  Status reset(const RestMonitorSettings<Scalar>& settings) { return reset(settings, false); }
+  // As reset(), within one stream (new settings mid-stream): the next sample is still ordered
+  // against the latest one, so one behind it is refused (kTimeBackwards) or makes a clock reset.
+  Status reset_in_stream(const RestMonitorSettings<Scalar>& settings) {
+    return reset(settings, true);
+  }
+
+ private:
+  Status reset(const RestMonitorSettings<Scalar>& settings, bool in_stream) {
     settings_ = settings;
     valid_ = check(settings);
-    checks_.reset(settings);
+    if (in_stream)
+      checks_.reset_in_stream(settings);
+    else
+      checks_.reset(settings);
     checks_.set_gap_limit(
         valid_ ? static_cast<std::uint32_t>(settings.max_step_seconds * Scalar(1e6)) : 0u);
     segmenter_.reset(settings);
@@ -124,11 +135,8 @@ class RestMonitor {
     }
     return valid_ ? Status::kOk : Status::kInvalidArgument;
   }
-  // After reset() within one stream (new settings mid-stream): the next sample is ordered against
-  // t_us, the latest time taken, so a sample behind it is still refused (kTimeBackwards) or
-  // seen as a clock reset; it starts the stream again.
-  void continue_after(std::uint32_t t_us) { checks_.continue_after(t_us); }
 
+ public:
   // Moves are kept (true, the default when the settings bound them) or not: then blocks close by
   // duration and stillness only, as without moves, and nothing is handed on (an owner that cannot
   // use them yet saves their cost). A move under way is dropped either way; the next begins at
@@ -210,6 +218,7 @@ class RestMonitor {
   const RestMonitorSettings<Scalar>& settings() const { return settings_; }
   // What the stream did wrong, by kind, and the samples refused.
   const StreamCounts& stream_counts() const { return checks_.counts(); }
+  std::uint32_t temperatures_read() const { return checks_.temperatures_read(); }
   // The temperatures the front end took (in range), since reset().
   const TemperatureMean<Scalar>& temperatures() const { return checks_.temperature(); }
   std::uint32_t samples_refused() const { return checks_.refused(); }
