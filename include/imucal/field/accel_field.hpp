@@ -68,7 +68,7 @@ struct AccelFieldSettings {
   Scalar scale_sigma = Scalar(0.03);         // relative
   Scalar misalignment_sigma = Scalar(0.02);  // rad
   Scalar slope_sigma = Scalar(0.0098);       // m/s^2 per deg C (1 mg/degC)
-  Scalar curvature_sigma = Scalar(4.9e-4);   // m/s^2 per deg C^2 (0.05 mg/degC^2; 0: linear)
+  Scalar curvature_sigma = Scalar(4.9e-4);   // m/s^2 per deg C^2 (0.05 mg/degC^2)
   // What no rest mean is better than (the pose floor: bias walk, the model's misfit): caps a
   // cell's weight. m/s^2.
   Scalar floor = Scalar(0.0049);  // 0.5 mg

@@ -456,11 +456,11 @@ class FieldCalibrator {
 
   // A batch of frames as the sensor's FIFO delivers them (stream/fifo.hpp: where the readings are
   // in each frame, when each was taken), and the temperature read with the batch (NaN: none),
-  // which goes with its first frame taken. Each frame gets the status add_raw() would give it:
-  // counted in the result, and written to statuses[k] if given (count entries). An invalid layout
-  // or a null buffer refuses every frame with kInvalidArgument (counted in the rest monitor's
-  // samples_refused()). A magnetometer reading belongs between the batches: add_mag() after the
-  // batch it arrived with.
+  // which goes with the first frame whose checks read it. Each frame gets the status add_raw()
+  // would give it: counted in the result, and written to statuses[k] if given (count entries). An
+  // invalid layout or a null buffer refuses every frame with kInvalidArgument (counted in the rest
+  // monitor's samples_refused()). A magnetometer reading belongs between the batches: add_mag()
+  // after the batch it arrived with.
   FifoResult add_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLayout& layout,
                       const FifoTiming& timing,
                       Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN(),
