@@ -1037,8 +1037,10 @@ void print(const char* what, std::uint64_t seed, const GyroMatrixRun& r) {
       "[ gyro matrix %s seed %d ] %u moves, %u refused, %u updates, %u changes: scale %.1e, "
       "misalignment %.1e rad from the truth (from %.0e, %.0e), worst publication %.2f "
       "sigma\n",
-      what, static_cast<int>(seed), r.counts.gyro_moves, r.counts.gyro_moves_refused,
-      r.counts.gyro_matrix_updates, r.counts.gyro_matrix_changes, r.scale_error(),
+      what, static_cast<int>(seed), static_cast<unsigned>(r.counts.gyro_moves),
+      static_cast<unsigned>(r.counts.gyro_moves_refused),
+      static_cast<unsigned>(r.counts.gyro_matrix_updates),
+      static_cast<unsigned>(r.counts.gyro_matrix_changes), r.scale_error(),
       r.misalignment_error(), r.scale_error(r.start), r.misalignment_error(r.start), r.worst_z);
 }
 
