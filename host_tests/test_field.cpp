@@ -1040,8 +1040,8 @@ void print(const char* what, std::uint64_t seed, const GyroMatrixRun& r) {
       what, static_cast<int>(seed), static_cast<unsigned>(r.counts.gyro_moves),
       static_cast<unsigned>(r.counts.gyro_moves_refused),
       static_cast<unsigned>(r.counts.gyro_matrix_updates),
-      static_cast<unsigned>(r.counts.gyro_matrix_changes), r.scale_error(),
-      r.misalignment_error(), r.scale_error(r.start), r.misalignment_error(r.start), r.worst_z);
+      static_cast<unsigned>(r.counts.gyro_matrix_changes), r.scale_error(), r.misalignment_error(),
+      r.scale_error(r.start), r.misalignment_error(r.start), r.worst_z);
 }
 
 // From a gyro matrix 1 % (scales) and 10 mrad (misalignments) off the truth with a datasheet's
