@@ -1605,6 +1605,19 @@ TEST(FieldFaults, AMagnetometerReadingBeyondAnyFieldIsRefused) {
   ASSERT_EQ(known.start(settings, nullptr, nullptr, &stored), Status::kOk);
   EXPECT_EQ(known.add_mag(Vector3<float>(6200.0f, 0.0f, -450.0f)), Status::kOk);
   EXPECT_EQ(known.add_mag(Vector3<float>(32767.0f, 32767.0f, 32767.0f)), Status::kGlitch);
+  // The reach is a sphere: 1 % inside it is a field and 1 % beyond it a glitch, along an axis and
+  // along the diagonal (where each axis is within the reach).
+  const MagFieldSettings<float>& ms = settings.mag;
+  const float reach =
+      (2.0f * ms.field_ut + 5.0f * (ms.hard_iron_sigma_ut + ms.change_sigma_ut)) * ms.counts_per_ut;
+  static FieldCalibrator<float> edge;
+  ASSERT_EQ(edge.start(settings), Status::kOk);
+  const Vector3<float> axis(0.0f, 0.0f, -1.0f), diagonal = Vector3<float>::Ones().normalized();
+  for (const Vector3<float>& u : {axis, diagonal}) {
+    EXPECT_EQ(edge.add_mag(u * (0.99f * reach)), Status::kOk) << u.transpose();
+    EXPECT_EQ(edge.add_mag(u * (1.01f * reach)), Status::kGlitch) << u.transpose();
+  }
+  EXPECT_EQ(edge.counts().mag_glitches, 2u);
 }
 
 }  // namespace

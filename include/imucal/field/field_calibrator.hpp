@@ -62,6 +62,7 @@
 #include "imucal/field/gyro_field.hpp"
 #include "imucal/field/mag_field.hpp"
 #include "imucal/models/calibration.hpp"
+#include "imucal/models/plausibility.hpp"
 #include "imucal/models/temperature_model.hpp"
 #include "imucal/status.hpp"
 #include "imucal/stream/fifo.hpp"
@@ -496,7 +497,7 @@ class FieldCalibrator {
   Status add_mag(const Vector3<Scalar>& m) {
     if (!valid_) return Status::kInvalidArgument;
     if (!all_finite(m)) return Status::kNonFiniteInput;
-    if (m.squaredNorm() > mag_max2_) {
+    if (beyond_mag_reach(m)) {
       ++counts_.mag_glitches;
       return Status::kGlitch;
     }
@@ -854,9 +855,23 @@ class FieldCalibrator {
         (Scalar(2) * ms.field_ut + Scalar(5) * (ms.hard_iron_sigma_ut + ms.change_sigma_ut)) *
             ms.counts_per_ut +
         hard_iron.norm();
-    mag_max2_ = reach > Scalar(0) && std::isfinite(reach * reach)
-                    ? reach * reach
-                    : std::numeric_limits<Scalar>::infinity();
+    mag_reach_ = reach > Scalar(0) && std::isfinite(reach * reach)
+                     ? reach
+                     : std::numeric_limits<Scalar>::infinity();
+    mag_inner_ = mag_reach_ * Scalar(0.577);  // below 1/sqrt(3): its cube is in the sphere
+  }
+
+  // A reading beyond the reach. Without an FPU its axes are compared first, on the float's bits
+  // (integer compares, plausibility.hpp): one beyond the reach is, and one whose every axis is
+  // within the inner cube is not; only a reading between the two needs |m|^2.
+  bool beyond_mag_reach(const Vector3<Scalar>& m) const {
+    if constexpr (!bounds::soft_float<Scalar>()) return m.squaredNorm() > mag_reach_ * mag_reach_;
+    bool inner = true;
+    for (int i = 0; i < 3; ++i) {
+      if (!bounds::abs_at_most(m[i], mag_reach_)) return true;
+      inner = inner && bounds::abs_at_most(m[i], mag_inner_);
+    }
+    return !inner && m.squaredNorm() > mag_reach_ * mag_reach_;
   }
 
   // The oldest rest piece waiting for the magnetometer's model.
@@ -1652,7 +1667,8 @@ class FieldCalibrator {
       Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
   MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
   Scalar mag_field_ut_ = Scalar(50);   // the field strength the model's norm is
-  Scalar mag_max2_ = std::numeric_limits<Scalar>::infinity();  // |reading|^2 beyond: a glitch
+  Scalar mag_reach_ = std::numeric_limits<Scalar>::infinity();  // |reading| beyond: a glitch
+  Scalar mag_inner_ = std::numeric_limits<Scalar>::infinity();  // each axis within: no glitch
   // The gyro's misalignment and scale, the piece a move into the next taken one starts from, the
   // move under way's rest (its timestamps) and its two ends' gravity directions.
   GyroField<Scalar> gyro_field_{};

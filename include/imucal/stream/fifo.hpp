@@ -96,10 +96,14 @@ FifoResult feed_fifo(const std::uint8_t* data, std::uint32_t count, const FifoLa
   FifoResult r;
   const bool ok = data != nullptr && layout.valid();
   Scalar t = temperature;
+  bool carried = !detail::is_nan(t);  // asked of read() only while the temperature goes along
   for (std::uint32_t k = 0; k < count; ++k) {
-    const std::uint32_t before = read();
+    const std::uint32_t before = carried ? read() : 0u;
     const Status s = ok ? add(fifo_frame(data, k, layout, timing), t) : refuse();
-    if (read() != before) t = std::numeric_limits<Scalar>::quiet_NaN();
+    if (carried && read() != before) {
+      t = std::numeric_limits<Scalar>::quiet_NaN();
+      carried = false;
+    }
     const bool took = taken(s);
     count_fifo_status(r, s, took);
     if (statuses != nullptr) statuses[k] = s;
