@@ -865,13 +865,16 @@ class FieldCalibrator {
   // (integer compares, plausibility.hpp): one beyond the reach is, and one whose every axis is
   // within the inner cube is not; only a reading between the two needs |m|^2.
   bool beyond_mag_reach(const Vector3<Scalar>& m) const {
-    if constexpr (!bounds::soft_float<Scalar>()) return m.squaredNorm() > mag_reach_ * mag_reach_;
-    bool inner = true;
-    for (int i = 0; i < 3; ++i) {
-      if (!bounds::abs_at_most(m[i], mag_reach_)) return true;
-      inner = inner && bounds::abs_at_most(m[i], mag_inner_);
+    if constexpr (!bounds::soft_float<Scalar>()) {
+      return m.squaredNorm() > mag_reach_ * mag_reach_;
+    } else {
+      bool inner = true;
+      for (int i = 0; i < 3; ++i) {
+        if (!bounds::abs_at_most(m[i], mag_reach_)) return true;
+        inner = inner && bounds::abs_at_most(m[i], mag_inner_);
+      }
+      return !inner && m.squaredNorm() > mag_reach_ * mag_reach_;
     }
-    return !inner && m.squaredNorm() > mag_reach_ * mag_reach_;
   }
 
   // The oldest rest piece waiting for the magnetometer's model.

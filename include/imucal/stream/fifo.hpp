@@ -85,7 +85,8 @@ inline void count_fifo_status(FifoResult& r, Status s, bool taken) {
 
 // A batch fed frame by frame: add(frame, temperature) gives each frame its status (the batch's
 // temperature goes with each frame until one reads it: read() counts the temperatures the front
-// end has read, usable or not; none goes with the frames after), taken(status) says whether the
+// end has read, usable or not, without side effects, and is asked only while the temperature
+// goes along; none goes with the frames after), taken(status) says whether the
 // frame was taken, and refuse() refuses each frame of a batch whose layout is invalid or whose
 // buffer is null. Each status is counted in the result and written to statuses[k] if given
 // (count entries). What every calibrator's add_fifo() runs.
