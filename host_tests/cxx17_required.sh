@@ -3,10 +3,12 @@
 # Compiled as C++11 or C++14 (an Arduino core's -std=gnu++11, a PlatformIO default), every public
 # header stops at imucal/config.hpp's one #error naming the flag, never at a template error first.
 # A header that is valid C++14 on its own compiles; the umbrella header must not.
-#   cxx17_required.sh CXX EIGEN_INCLUDE_DIR SOURCE_DIR
+#   cxx17_required.sh CXX EIGEN_INCLUDE_DIR SOURCE_DIR [STANDARDS]
+# STANDARDS: the -std values to check, "gnu++11 gnu++14" unless given.
 cxx="$1"
 eigen="$2"
 src="$3"
+standards=${4:-"gnu++11 gnu++14"}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # GCC prints the directive (error: #error "..."), Clang its text (fatal error: "...").
@@ -14,7 +16,7 @@ expected='"imucal needs C++17: compile with -std=gnu++17 (or -std=c++17)"'
 headers=$(cd "$src" && find include ports/include -name '*.hpp' | sort)
 failed=0
 checked=0
-for std in gnu++11 gnu++14; do
+for std in $standards; do
   for h in $headers; do
     rel=${h#include/}
     rel=${rel#ports/include/}
