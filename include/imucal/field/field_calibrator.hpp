@@ -805,10 +805,12 @@ class FieldCalibrator {
     }
     clock_started_ = true;
     last_t_us_ = t_us;
-    // The temperatures the front end took (it sums them in fixed point), smoothed once a batch.
-    const TemperatureMean<Scalar>& readings = monitor_.temperatures();
-    if (readings.count() != temps_seen_ && elapsed_us_ - temperature_us_ >= kTemperatureBatchUs)
-      smooth_temperature(readings);
+    // The temperatures the front end took (it sums them in fixed point), smoothed once a batch
+    // (the batch's time first: nearly every frame stops there).
+    if (elapsed_us_ - temperature_us_ >= kTemperatureBatchUs) {
+      const TemperatureMean<Scalar>& readings = monitor_.temperatures();
+      if (readings.count() != temps_seen_) smooth_temperature(readings);
+    }
     take_rests();
     if (pending_ && !monitor_.resting()) {  // the rest is over: its last piece is judged
       judge(pending_piece_);

@@ -10,11 +10,11 @@
 // through the same per-sample steps into the same SubBlockStats:
 //   16-bit counts   integer arithmetic only per sample (the moving averages in fixed point): the
 //                   accelerometer's deviations from the detector's reference (their sum exact,
-//                   their squares summed with and without the detector's clip), the gyro's
-//                   energy, and the rotation statistics of the trapezoid rate (alpha, and the
-//                   second-order terms beta and gamma exactly, in 64 and 32 bits) with an integer
-//                   part of the bias removed; the fractional part of the bias is added exactly
-//                   once per sub-block (detail::RawSums).
+//                   their squares summed; clipped at the detector's clip, the squares feed only
+//                   its moving average), the gyro's energy, and the rotation statistics of the
+//                   trapezoid rate (alpha, and the second-order terms beta and gamma exactly, in 64
+//                   and 32 bits) with an integer part of the bias removed; the fractional part of
+//                   the bias is added exactly once per sub-block (detail::RawSums).
 //   readings        in any unit, the same sums in the scalar type (the segment statistics sample
 //                   by sample, with each sample's own interval; detail::FloatSums).
 // The integer path takes the sub-block's mean interval for beta and gamma (second order; alpha
@@ -78,10 +78,8 @@ struct SubBlockStats {
   Vector3<Scalar> moving_mean = Vector3<Scalar>::Zero();  // the detector's, after the last sample
   // sum of (a - acc_ref) over the usable readings, scaled to all n samples
   Vector3<Scalar> acc_sum = Vector3<Scalar>::Zero();
-  Scalar dev = Scalar(0);          // sum |a - limits.acc_ref|^2 over the usable readings
-  Scalar dev_clipped = Scalar(0);  // the same, each axis's square clipped at limits.dev_clip
-  Scalar energy = Scalar(0);       // sum |w + b0|^2
-  Scalar energy_clipped = Scalar(0);
+  Scalar dev = Scalar(0);       // sum |a - limits.acc_ref|^2 over the usable readings
+  Scalar energy = Scalar(0);    // sum |w + b0|^2
   GyroSegment<Scalar> seg{};    // of the trapezoid rate u = w + b0 over the intervals
   Scalar path = Scalar(0);      // a bound on its path angle: duration * rms |u|
   Scalar temp_sum = Scalar(0);  // temperatures relative to the caller's reference
@@ -278,12 +276,8 @@ class FloatSums {
   void sum_accel(const Input& x, const Cue& c) {
     sums_.acc += x.acc - acc_ref_;
     sums_.dev += c.dev;
-    sums_.dev_clipped += c.clipped;
   }
-  void sum_rate(const Rate& r) {
-    sums_.energy += r.e;
-    sums_.energy_clipped += r.e_clipped;
-  }
+  void sum_rate(const Rate& r) { sums_.energy += r.e; }
   void rotate(const Rate& r, const Step& h, bool still, std::uint32_t /*intervals*/) {
     if (still)
       sums_.seg.add_first_order(r.m, h.dt);
@@ -298,9 +292,7 @@ class FloatSums {
     s.acc_ref = acc_ref_;
     s.acc_sum = sums_.acc;
     s.dev = sums_.dev;
-    s.dev_clipped = sums_.dev_clipped;
     s.energy = sums_.energy;
-    s.energy_clipped = sums_.energy_clipped;
     s.seg = sums_.seg;
     s.moving_mean = mean_;
   }
@@ -308,7 +300,7 @@ class FloatSums {
  private:
   struct Sums {
     Vector3<Scalar> acc = Vector3<Scalar>::Zero();
-    Scalar dev = Scalar(0), dev_clipped = Scalar(0), energy = Scalar(0), energy_clipped = Scalar(0);
+    Scalar dev = Scalar(0), energy = Scalar(0);
     GyroSegment<Scalar> seg{};
   };
   Sums sums_{};
@@ -414,7 +406,6 @@ class RawSums {
     c_[0] = c_[1] = c_[2] = 0;
     step0_ = 0;
     dev_ = energy_ = 0;
-    dev_c_ = energy_c_ = 0;
   }
 
   static Step step(std::uint32_t step_us, const SubBlockLimits<Scalar>& /*l*/) { return {step_us}; }
@@ -461,14 +452,12 @@ class RawSums {
     s1_[1] += c.d1;
     s1_[2] += c.d2;
     dev_ += c.dev;
-    dev_c_ += c.clipped;
   }
   void sum_rate(const Rate& r) {
     u1_[0] += r.u[0];
     u1_[1] += r.u[1];
     u1_[2] += r.u[2];
     energy_ += r.e;
-    energy_c_ += r.e_clipped;
   }
   // Trapezoid: s = u_k + u_(k-1), twice the interval's mean rate. With P the sum of the earlier s
   // of this sub-block: beta += P x s; gamma's sum of P - k s (k the earlier intervals) is
@@ -516,7 +505,6 @@ class RawSums {
       if (!db_zero_) db_dot_u1 += db_(i) * static_cast<Scalar>(u1_[i]);
     }
     s.dev = to_scalar<Scalar>(dev_) * Scalar(1.0 / 256);
-    s.dev_clipped = to_scalar<Scalar>(dev_c_) * Scalar(1.0 / 256);
     for (int i = 0; i < 3; ++i)
       s.moving_mean(i) = static_cast<Scalar>(mean_q8_[i]) * Scalar(1.0 / 256);
     const Scalar energy = to_scalar<Scalar>(energy_);
@@ -525,9 +513,6 @@ class RawSums {
       s.energy = energy + Scalar(2) * db_dot_u1 + n * db2_;
       s.energy = s.energy > Scalar(0) ? s.energy : Scalar(0);
     }
-    s.energy_clipped = static_cast<std::uint64_t>(energy_c_) == energy_
-                           ? s.energy
-                           : static_cast<Scalar>(energy_c_);
     // The rotation statistics of the integer rate u = w + round(b0) at the mean interval h:
     // alpha = h/2 P, beta = h^2/4 X, gamma = h^2/2 Y; then the rest of the bias, exactly.
     if (s.intervals > 0) {
@@ -585,8 +570,8 @@ class RawSums {
   std::uint32_t q_[3] = {0, 0, 0};  // the sum of P before each interval (modulo 2^32)
   std::int64_t x_[3] = {0, 0, 0}, c_[3] = {0, 0, 0};
   std::uint32_t step0_ = 0;
-  std::uint64_t dev_ = 0, dev_c_ = 0, energy_ = 0, energy_max_ = 0;  // dev_: 1/256 count^2
-  std::uint32_t energy_c_ = 0, dev_clip_q8_ = 0, energy_clip_ = 0, glitch2_q8_ = 0;
+  std::uint64_t dev_ = 0, energy_ = 0, energy_max_ = 0;  // dev_: 1/256 count^2
+  std::uint32_t dev_clip_q8_ = 0, energy_clip_ = 0, glitch2_q8_ = 0;
   std::int32_t mean_q8_[3] = {0, 0, 0};
   std::int32_t va_q8_ = 0, ee_q4_ = 0, accel_max_q8_ = 0, energy_max_q4_ = 0, weight_q16_ = 0;
 };
