@@ -46,14 +46,17 @@ inline std::uint32_t bits_of(float x) {
   std::memcpy(&b, &x, sizeof b);
   return b;
 }
+inline std::uint64_t bits_of(double x) {
+  std::uint64_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
 // NaN by its bits.
 inline bool is_nan(float x) { return (bits_of(x) & 0x7FFFFFFFu) > 0x7F800000u; }
 // Finite (neither NaN nor infinite) by its bits.
 inline bool is_finite(float x) { return (bits_of(x) & 0x7FFFFFFFu) < 0x7F800000u; }
 inline bool is_nan(double x) {
-  std::uint64_t b;
-  std::memcpy(&b, &x, sizeof b);
-  return (b & 0x7FFFFFFFFFFFFFFFull) > 0x7FF0000000000000ull;
+  return (bits_of(x) & 0x7FFFFFFFFFFFFFFFull) > 0x7FF0000000000000ull;
 }
 
 // x as the scalar type, without the runtime's 64-bit conversion routines.

@@ -199,12 +199,7 @@ inline std::int32_t round_q8(std::int32_t q) { return q < 0 ? -((128 - q) >> 8) 
 // are copied, never computed, between the compares. On the values' bits in registers: memcmp()
 // is a library call on some cores, once for every limit of every sub-block.
 inline bool bits_differ(float a, float b) { return bits_of(a) != bits_of(b); }
-inline bool bits_differ(double a, double b) {
-  std::uint64_t x, y;
-  std::memcpy(&x, &a, sizeof x);
-  std::memcpy(&y, &b, sizeof y);
-  return x != y;
-}
+inline bool bits_differ(double a, double b) { return bits_of(a) != bits_of(b); }
 template <typename Scalar>
 bool bits_differ(const Vector3<Scalar>& a, const Vector3<Scalar>& b) {
   return bits_differ(a(0), b(0)) || bits_differ(a(1), b(1)) || bits_differ(a(2), b(2));
