@@ -229,9 +229,12 @@ class LevenbergMarquardt {
 
 // The LM stops with kNoProgress when the cost can no longer be evaluated precisely enough to
 // see a decrease (in float, when the residuals are small differences of O(1) numbers). If the
-// undamped Gauss-Newton step from where it stopped is below 5 % of every parameter's sigma
+// undamped Gauss-Newton step from where it stopped is below a tenth of every parameter's sigma
 // (variance * H^-1, as NormalEquations::standard_deviations()), the estimate is as good as the
-// data make it: kConvergedCost. Any other status is returned as it is.
+// arithmetic makes it: kConvergedCost. A tenth is float's own limit: at 1 kHz a pose mean is so
+// precise that the cost's rounding (a few tenths of a chi-square unit over 15 poses) hides a
+// step of about 0.06 sigma, and float and double are held to agree within 0.1 sigma. Any other
+// status is returned as it is.
 template <typename Scalar, int N>
 Status precision_limited(const LevenbergMarquardt<Scalar, N>& lm, Status s,
                          Scalar variance = Scalar(-1)) {
@@ -242,7 +245,7 @@ Status precision_limited(const LevenbergMarquardt<Scalar, N>& lm, Status s,
       ne.standard_deviations(sd, variance) != Status::kOk)
     return s;
   for (int i = 0; i < N; ++i)
-    if (!(std::abs(gn(i)) <= Scalar(0.05) * sd(i))) return s;
+    if (!(std::abs(gn(i)) <= Scalar(0.1) * sd(i))) return s;
   return Status::kConvergedCost;
 }
 
