@@ -250,9 +250,14 @@ class Calibrator {
   template <typename>
   friend class StreamChecks;
 
+  // The segmenter: a sub-block (the detector's step, its float work) as long as a block, and as
+  // many samples as the integer sums hold, so that the float work is done as seldom as the
+  // trimming's granularity allows.
+  using StreamSegmenter = Segmenter<Scalar, DelayBlocks, kMaxSubBlockSamples>;
   SegmenterSettings<Scalar> segmenter_settings() const {
     SegmenterSettings<Scalar> s;
     s.block_seconds = settings_.block_seconds;
+    s.sub_block_seconds = settings_.block_seconds;
     s.trim_seconds = settings_.trim_seconds;
     s.min_rest_seconds = settings_.min_rest_seconds;
     return s;
@@ -335,9 +340,9 @@ class Calibrator {
   bool check_settings() const {
     const CalibratorSettings<Scalar>& c = settings_;
     return c.initial_rest_seconds > Scalar(0) && c.stillness.valid() &&
-           Segmenter<Scalar, DelayBlocks>::valid(segmenter_settings()) &&
-           c.glitch_sigma > Scalar(1) && c.segment_max_angle > Scalar(0) &&
-           c.segment_max_error > Scalar(0) && c.gyro.nominal_scale >= Scalar(0) &&
+           StreamSegmenter::valid(segmenter_settings()) && c.glitch_sigma > Scalar(1) &&
+           c.segment_max_angle > Scalar(0) && c.segment_max_error > Scalar(0) &&
+           c.gyro.nominal_scale >= Scalar(0) &&
            // Durations become microseconds in uint32: keep them far from 2^32 us (71 min).
            c.max_step_seconds <= Scalar(60) && c.StreamSettings<Scalar>::valid();
   }
@@ -537,7 +542,7 @@ class Calibrator {
   // The per-sample path: the front end and the segmenter first (single-instruction offsets from
   // `this` on Arm).
   StreamChecks<Scalar> checks_{};
-  Segmenter<Scalar, DelayBlocks> segmenter_{};
+  StreamSegmenter segmenter_{};
   bool last_rest_short_ = false;
   bool pose_store_full_reported_ = false;  // to be returned by the next add()
   bool capacity_reported_ = false;         // once per run

@@ -30,7 +30,9 @@ struct CalibratorSettings : StreamSettings<Scalar> {
   Scalar min_rest_seconds = Scalar(0.6);
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
   StillnessSettings<Scalar> stillness{};  // the detector (stillness.hpp)
-  Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
+  // The granularity of the trimming, and the detector's step: the per-sample path's float work
+  // is done once a block (sooner at more than 32 samples a block, or in a fast turn).
+  Scalar block_seconds = Scalar(0.25);
   // An accelerometer reading (not at full scale) further than this many noise sigmas (the
   // initial rest's, its noisiest axis) from the moving mean (the distance over the three axes) is
   // a glitch: refused and counted. During the initial rest, the sigma and the mean are the rest

@@ -14,9 +14,9 @@
 //   - the moves' resolution: 128 gyro segments for the 23 moves instead of 630 for 47. The move
 //     store coarsens (move_store.hpp: exact merges, the bounds doubling each time; 6 times on the
 //     xsens recording, against once for the default);
-//   - the rest trimming: a delay line of 4 blocks, so trim_seconds at most 3 blocks (0.3 s at the
-//     default block_seconds of 0.1 s; the default 0.25 s fits). Settings asking more are refused
-//     (kInvalidArgument).
+//   - the rest trimming: a delay line of 4 blocks, so trim_seconds at most 3 blocks (0.75 s at
+//     the default block_seconds of 0.25 s; the default trim_seconds, 0.25 s, fits). Settings
+//     asking more are refused (kInvalidArgument).
 // No rate limit: the stores hold blocks, poses and segments, not samples, so the memory does not
 // depend on the sample rate.
 // test_small_calibrator holds it to 12 KiB on every target and to the default's parameters within
