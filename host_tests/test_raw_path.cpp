@@ -378,7 +378,7 @@ TEST(RawPath, SimulatedFastProtocolAsTheFloatPath) {
       },
       // 1 kHz with timestamp jitter: the integer path takes the sub-block's mean interval for the
       // second-order terms beta and gamma; the gyro scales move by up to about 0.1 sigma, by
-      // compiler (0.06 with GCC, 0.10 with Clang, whose builds end some rests a sub-block apart).
+      // compiler (0.09 with GCC, 0.05 with Clang, whose builds end some rests a sub-block apart).
       0.15);
 }
 
