@@ -12,8 +12,8 @@
 //     once, phase ready), so the sigmas are those of 24 poses (the xsens recording's first 24 of
 //     41: the accelerometer's about 1.5 times, the gyro's 1.3 times the default's);
 //   - the moves' resolution: 128 gyro segments for the 23 moves instead of 630 for 47. The move
-//     store coarsens (move_store.hpp: exact merges, the bounds doubling each time; 6 times on the
-//     xsens recording, against once for the default);
+//     store coarsens (move_store.hpp: exact merges, the bounds doubling each time; 5 times on the
+//     xsens recording, against none for the default);
 //   - the rest trimming: a delay line of 4 blocks, so trim_seconds at most 3 blocks (0.75 s at
 //     the default block_seconds of 0.25 s; the default trim_seconds, 0.25 s, fits). Settings
 //     asking more are refused (kInvalidArgument).

@@ -88,7 +88,7 @@ struct RestMonitorSettings : StreamSettings<Scalar>, SegmenterSettings<Scalar> {
 // at least trim_seconds plus one block); a move under way keeps at most MoveSegments segments; a
 // sub-block holds at most SubBlockSamples samples (the segmenter's, segmenter.hpp).
 template <typename Scalar, int Queue = 4, int DelayBlocks = 8, int MoveSegments = 0,
-          int SubBlockSamples = 16>
+          int SubBlockSamples = kMaxSubBlockSamples>
 class RestMonitor {
  public:
   static_assert(Queue >= 1, "room for at least one finished rest");

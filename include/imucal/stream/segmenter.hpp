@@ -51,7 +51,7 @@ struct SegmenterSettings {
   Scalar accel_shift_max = std::numeric_limits<Scalar>::infinity();
 };
 
-template <typename Scalar, int DelayBlocks, int SubBlockSamples = 16>
+template <typename Scalar, int DelayBlocks, int SubBlockSamples = kMaxSubBlockSamples>
 class Segmenter {
  public:
   static_assert(DelayBlocks >= 2, "delay line too short");
