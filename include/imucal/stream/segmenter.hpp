@@ -121,6 +121,7 @@ class Segmenter {
     rest_ = rest;
     rest_open_ = true;
     block_ = Block{};
+    if (sub_.size() > 0) set_sub_span();
   }
 
   // One checked sample: a reading in the scalar type or a frame of 16-bit counts (integer work
@@ -138,9 +139,9 @@ class Segmenter {
       sub_block_done(*done, sink);
       sub_.release_done();
     }
+    if (sub_.size() == 1) set_sub_span();
     if (sub_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
-        x.t_us - sub_.t_begin() >= sub_us_ || x.t_us - block_begin(sub_.t_begin()) >= block_us_ ||
-        sub_.template energy_full<Input>())
+        x.t_us - sub_.t_begin() >= sub_span_us_ || sub_.template energy_full<Input>())
       close_sub_block(sink);
     return true;
   }
@@ -226,6 +227,15 @@ class Segmenter {
   // When the block the open sub-block joins began (a block closes once it lasted block_seconds).
   std::uint32_t block_begin(std::uint32_t sub_begin) const {
     return block_.n > 0 ? block_.t_begin : sub_begin;
+  }
+
+  // How long the open sub-block may last from its first sample: sub_block_seconds, and no
+  // further than the block's end (block_seconds from the block's first sample). Worked out at
+  // its first sample and wherever the block changes under it, not at every sample.
+  void set_sub_span() {
+    const std::uint32_t into = sub_.t_begin() - block_begin(sub_.t_begin());
+    const std::uint32_t left = into < block_us_ ? block_us_ - into : 0u;
+    sub_span_us_ = left < sub_us_ ? left : sub_us_;
   }
 
   // The accumulator starts a sub-block with the detector's limits and the rotation bound. A new
@@ -361,17 +371,18 @@ class Segmenter {
   // The per-sample path's members first (single-instruction offsets on Arm).
   SubBlock<Scalar> sub_{};
   std::uint32_t sub_us_ = 0;
+  std::uint32_t sub_span_us_ = 0;  // the open sub-block's (set_sub_span())
   bool rest_open_ = false;
+  bool bias_pending_ = false;
+  bool mean_follows_ = false;  // the detector's mean is the accumulator's moving mean
   StillnessDetector<Scalar> detector_{};
   Vector3<Scalar> b0_ = Vector3<Scalar>::Zero();  // gyro bias, added
   Vector3<Scalar> pending_bias_ = Vector3<Scalar>::Zero();
-  bool bias_pending_ = false;
   Scalar energy_max_ = std::numeric_limits<Scalar>::infinity();  // a sub-block's rotation bound
   Scalar interval_ = Scalar(0);     // the latest sub-block's mean sample interval
   std::uint32_t interval_us_ = 0;   // the same, to the microsecond (0: none yet)
   Scalar bound_angle_ = Scalar(0);  // the segment bound energy_max_ was worked out for
   Scalar weight_ = Scalar(0);       // one sample's weight in the moving averages at interval_
-  bool mean_follows_ = false;       // the detector's mean is the accumulator's moving mean
   std::uint32_t block_us_ = 0, trim_us_ = 0;
   Block block_{};
   DelayLine<Scalar, DelayBlocks> delay_{};
