@@ -143,8 +143,6 @@ constexpr bool kLongMultiplyIsACall = true;
 constexpr bool kLongMultiplyIsACall = false;
 #endif
 
-inline bool fits16(std::int32_t x) { return x >= -32768 && x <= 32767; }
-
 // acc += a * b - c * d, exact (in 32 bits when the operands allow and a long multiply is a call;
 // else two multiply-accumulates: |c| < 2^31 in every use, so -c does not overflow).
 inline void cross_add(std::int64_t& acc, std::int32_t a, std::int32_t b, std::int32_t c,
@@ -373,6 +371,9 @@ class RawSums {
         va_q8_ = static_cast<std::int32_t>(to_u32_limit(
             static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
       weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
+      // |d| <= fit_ keeps d * weight_q16_ within 31 bits.
+      fit_ = weight_q16_ > 0 ? 0x7FFFFFFFu / static_cast<std::uint32_t>(weight_q16_) : 0u;
+      fit_ = fit_ < (1u << 30) ? fit_ : (1u << 30);
     }
     if (new_accel)
       accel_max_q8_ = static_cast<std::int32_t>(
@@ -552,8 +553,9 @@ class RawSums {
   // w (x - y) in fixed point.
   std::int32_t weighted(std::int32_t x, std::int32_t y) const {
     const std::int32_t d = x - y;
-    // weight_q16_ <= 65536: a 16-bit d keeps the product within 32 bits.
-    if (kLongMultiplyIsACall && fits16(d)) return (d * weight_q16_) >> 16;
+    // |d| <= fit_ (d + fit_ in [0, 2 fit_], one unsigned compare) keeps the product in 32 bits.
+    if (kLongMultiplyIsACall && static_cast<std::uint32_t>(d) + fit_ <= 2u * fit_)
+      return (d * weight_q16_) >> 16;
     return static_cast<std::int32_t>((static_cast<std::int64_t>(d) * weight_q16_) >> 16);
   }
 
@@ -576,6 +578,7 @@ class RawSums {
   std::uint32_t dev_clip_q8_ = 0, energy_clip_ = 0, glitch2_q8_ = 0;
   std::int32_t mean_q8_[3] = {0, 0, 0};
   std::int32_t va_q8_ = 0, ee_q4_ = 0, accel_max_q8_ = 0, energy_max_q4_ = 0, weight_q16_ = 0;
+  std::uint32_t fit_ = 0;  // the largest |d| weighted() multiplies in 32 bits
 };
 
 }  // namespace detail
