@@ -10,7 +10,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <type_traits>
 
 #include "imucal/models/accel_model.hpp"
 #include "imucal/stream/compensated_sum.hpp"
@@ -85,17 +84,8 @@ struct SampleBlock {
       t_end = b.t_end;
       return;
     }
-    if constexpr (std::is_same<B, SubBlockStats<Scalar>>::value) {
-      // A still sub-block's rotation is first order, and its sum has no compensation term.
-      if (b.still)
-        seg.append_first_order(b.seg);
-      else
-        seg.append(b.seg);
-      add_acc(b.acc_ref, b.acc_sum, b.n);
-    } else {
-      seg.append(b.seg);
-      add_acc(b.acc_ref, b.acc_sum + comp, b.n);
-    }
+    seg.append(b.seg);
+    add_acc(b.acc_ref, b.acc_sum, comp, b.n);
     path += b.path;
     accel_cue += b_accel_cue;
     energy_cue += b_energy_cue;
@@ -106,10 +96,17 @@ struct SampleBlock {
     t_end = b.t_end;
   }
 
-  // A sum of m readings about ref (its compensation term added) joins this block's: moved to this
-  // block's reference (m (ref - acc_ref): exact for raw counts), added compensated.
-  void add_acc(const Vector3<Scalar>& ref, const Vector3<Scalar>& sum, std::uint32_t m) {
-    const Vector3<Scalar> moved = sum + static_cast<Scalar>(m) * (ref - acc_ref);
+  // A sum of m readings about ref (sum + comp) joins this block's: moved to this block's reference
+  // (m (ref - acc_ref): exact for raw counts), added compensated.
+  void add_acc(const Vector3<Scalar>& ref, const Vector3<Scalar>& sum, const Vector3<Scalar>& comp,
+               std::uint32_t m) {
+    if (n == 0) {
+      acc_ref = ref;
+      acc_sum = sum;
+      acc_comp = comp;
+      return;
+    }
+    const Vector3<Scalar> moved = sum + comp + static_cast<Scalar>(m) * (ref - acc_ref);
     for (int i = 0; i < 3; ++i) compensated_add(acc_sum(i), acc_comp(i), moved(i));
   }
 

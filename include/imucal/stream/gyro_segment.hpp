@@ -61,15 +61,6 @@ struct GyroSegment {
     duration += later.duration;
   }
 
-  // append() of a first-order run (add_first_order()'s: beta and gamma zero), without adding
-  // its zeros.
-  void append_first_order(const GyroSegment& later) {
-    beta += alpha.cross(later.alpha);
-    gamma += alpha * later.duration - later.alpha * duration;
-    alpha += later.alpha;
-    duration += later.duration;
-  }
-
   // The same samples with db added to every rate (exact: gamma does not change).
   void add_bias(const Vector3<Scalar>& db) {
     beta += gamma.cross(db);
