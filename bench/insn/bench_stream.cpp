@@ -92,14 +92,23 @@ bool raw_paths() {
   while (in.next(t, acc, gyro)) {
     g_frame = frame_of(t, acc, gyro);
     const bool initial = calibrator.progress().phase == Phase::kInitialRest;
-    imucal_bench_begin();
+#ifdef IMUCAL_BENCH_PROFILE_STILL
+    const bool counted = !initial && calibrator.still();  // still before and, mostly, after
+#else
+    const bool counted = true;
+#endif
+    if (counted) imucal_bench_begin();
     calibrator.add_raw(g_frame);
-    imucal_bench_end();
+    if (counted) imucal_bench_end();
+    if (!counted) continue;
     bench_announce(initial              ? "add_raw(): initial rest, per frame"
                    : calibrator.still() ? "add_raw(): still, per frame"
                                         : "add_raw(): moving, per frame");
   }
   const int poses_raw = calibrator.progress().poses;
+#ifdef IMUCAL_BENCH_PROFILE_STILL
+  return poses_raw > 30;  // the still frames' regions only
+#endif
   calibrator.reset(signed_xsens_settings());
   test::XsensStream again;
   if (!again.open(test::find_xsens_dir())) return false;
@@ -142,7 +151,9 @@ bool raw_paths() {
 int main() {
 #ifdef IMUCAL_BENCH_RAW_FIRST
   // Built with this defined, the integer path runs alone: its first 51,175 regions are the
-  // recording's add_raw() calls, for bench/insn_profile.py.
+  // recording's add_raw() calls, for bench/insn_profile.py; with IMUCAL_BENCH_PROFILE_STILL as
+  // well, its first regions are those of the frames that come while the calibrator is still after
+  // the initial rest.
   return raw_paths() ? 0 : 1;
 #endif
   // The add() series starts here rather than just before the loop: there, the call changed the
