@@ -43,6 +43,7 @@
 #include "imucal/models/gyro_model.hpp"
 #include "imucal/solve/gyro_calibration.hpp"
 #include "imucal/solve/ldlt.hpp"
+#include "imucal/solve/normal_equations.hpp"
 #include "imucal/status.hpp"
 #include "imucal/types.hpp"
 
@@ -117,7 +118,7 @@ class GyroField {
     if (!valid_) return Status::kInvalidArgument;
     theta_ = published_ = prior;
     p_.setZero();
-    p_.diagonal() = sigma.cwiseAbs2();
+    for (int i = 0; i < N; ++i) p_(diagonal(i)) = sigma(i) * sigma(i);
     published_p_ = p_;
     return Status::kOk;
   }
@@ -190,14 +191,14 @@ class GyroField {
     for (int i = 0; i < N; ++i) {
       // The accelerometer's shape error, common to every move: relative for the scales.
       const Scalar f = i >= kGyroScaleX ? shape_ * published_(i) : shape_;
-      s(i) = std::sqrt(published_p_(i, i) + f * f);
+      s(i) = std::sqrt(published_p_(diagonal(i)) + f * f);
     }
     return s;
   }
   bool has_published() const { return has_published_; }
   // The estimate and its covariance (the moves' own, without the accelerometer's share).
   const Vector& estimate() const { return theta_; }
-  const Matrix& covariance() const { return p_; }
+  Matrix covariance() const { return detail::unpack_symmetric<Scalar, N>(p_.data()); }
   std::uint32_t moves() const { return moves_; }
   std::uint32_t refused() const { return refused_; }
   std::uint32_t changes() const { return changes_; }
@@ -282,10 +283,12 @@ class GyroField {
     m.shape = move_shape_;
     m.seen = moves_ + refused_ + 1u;
     const Vector before = theta_;
-    if (!kalman(m, theta_, theta_, p_, chi2_)) {
+    Matrix p = covariance();
+    if (!kalman(m, theta_, theta_, p, chi2_)) {
       ++refused_;
       return chi2_ > Scalar(0) && changed(m) ? GyroFieldEvent::kChanged : GyroFieldEvent::kRefused;
     }
+    detail::pack_symmetric<Scalar, N>(p, p_.data());
     ++moves_;
     if (m.shape > shape_) shape_ = m.shape;
     // The refused moves kept stay linearised where the estimate now stands.
@@ -306,7 +309,7 @@ class GyroField {
     const int first = (next_ + kChangeMoves - need) % kChangeMoves;
     if (m.seen - moves_kept_[first].seen >= static_cast<std::uint32_t>(2 * need)) return false;
     Vector theta = theta_;
-    Matrix p = p_;
+    Matrix p = covariance();
     for (int i = 0; i < N; ++i) {
       const Scalar t =
           i >= kGyroScaleX ? settings_.scale_sigma * theta_(i) : settings_.misalignment_sigma;
@@ -321,7 +324,8 @@ class GyroField {
     if (!all_finite(theta)) return false;
     shape_ = shape;
     theta_ = published_ = theta;
-    p_ = published_p_ = p;
+    detail::pack_symmetric<Scalar, N>(p, p_.data());
+    published_p_ = p_;
     has_published_ = true;
     reason_ = 3;
     kept_ = next_ = 0;
@@ -332,13 +336,14 @@ class GyroField {
   GyroFieldEvent consider_publishing() {
     bool no_worse = true, much_better = false;
     for (int i = 0; i < N; ++i) {
-      no_worse = no_worse && p_(i, i) <= published_p_(i, i) * Scalar(1.001);
-      much_better = much_better || p_(i, i) <= settings_.better_ratio * published_p_(i, i);
+      const Scalar now = p_(diagonal(i)), before = published_p_(diagonal(i));
+      no_worse = no_worse && now <= before * Scalar(1.001);
+      much_better = much_better || now <= settings_.better_ratio * before;
     }
     if (!no_worse) return GyroFieldEvent::kTaken;
     // chi-square of the difference with both covariances, Jacobi-scaled (the scales and the
     // misalignments differ by orders of magnitude in the model's units).
-    Matrix m = p_ + published_p_;
+    Matrix m = covariance() + detail::unpack_symmetric<Scalar, N>(published_p_.data());
     Vector x = theta_ - published_, y;
     for (int i = 0; i < N; ++i) {
       if (!(m(i, i) > Scalar(0))) return GyroFieldEvent::kTaken;
@@ -365,7 +370,11 @@ class GyroField {
   Settings settings_{};
   bool valid_ = false, walking_ = false, has_published_ = false;
   Vector theta_ = Vector::Zero(), published_ = Vector::Zero();
-  Matrix p_ = Matrix::Zero(), published_p_ = Matrix::Zero();
+  // The estimate's covariance and the published one's, packed (detail::pack_symmetric): each is
+  // exactly symmetric (kalman() makes it so), and half the size.
+  using Packed = Eigen::Matrix<Scalar, N*(N + 1) / 2, 1>;
+  static Eigen::Index diagonal(int i) { return detail::packed_index(N, i, i); }
+  Packed p_ = Packed::Zero(), published_p_ = Packed::Zero();
   GyroProblem<Scalar> problem_{};
   typename GyroProblem<Scalar>::Cursor cursor_{};
   Scalar angle_ = Scalar(0), duration_ = Scalar(0);  // the move's path (raw) and duration (s)

@@ -33,6 +33,21 @@ namespace detail {
 // accumulator's one out-of-line add_row().
 inline int packed_index(int n, int r, int c) { return c * n - c * (c - 1) / 2 + (r - c); }
 
+// A symmetric N x N matrix to its packed lower triangle (the layout above) and back: a matrix
+// kept between calls takes half the RAM. Exact both ways for a matrix that is exactly symmetric.
+template <typename Scalar, int N>
+void pack_symmetric(const Eigen::Matrix<Scalar, N, N>& m, Scalar* h) {
+  for (int c = 0; c < N; ++c)
+    for (int r = c; r < N; ++r) h[packed_index(N, r, c)] = m(r, c);
+}
+template <typename Scalar, int N>
+Eigen::Matrix<Scalar, N, N> unpack_symmetric(const Scalar* h) {
+  Eigen::Matrix<Scalar, N, N> m;
+  for (int c = 0; c < N; ++c)
+    for (int r = c; r < N; ++r) m(r, c) = m(c, r) = h[packed_index(N, r, c)];
+  return m;
+}
+
 template <typename Scalar>
 Status ne_add(Scalar* h, Scalar* v, Scalar& f, Scalar& trace, int n, const Scalar* j, Scalar e,
               Scalar w) {
