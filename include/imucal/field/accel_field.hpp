@@ -204,7 +204,6 @@ class AccelField {
         max_c_ = model->max_c;
       }
     }
-    prior_sigma_ = sigma0_;
     theta_ = published_ = theta0_;
     published_sigma_ = sigma_ = sigma0_;
     for (Scalar& c : published_cov_) c = Scalar(0);
@@ -429,7 +428,7 @@ class AccelField {
   // gravity).
   const Vector& published_parameters() const { return published_; }
   const Vector& published_sigmas() const { return published_sigma_; }
-  const Vector& prior_sigmas() const { return prior_sigma_; }
+  const Vector& prior_sigmas() const { return sigma0_; }
 
  private:
   using Ne = NormalEquations<Scalar, kParams>;
@@ -622,7 +621,7 @@ class AccelField {
   }
   Scalar prior_quadratic(const typename Ne::Vector& j) const {
     Scalar sum = Scalar(0);
-    for (int k = 0; k < kParams; ++k) sum += j(k) * j(k) * prior_sigma_(k) * prior_sigma_(k);
+    for (int k = 0; k < kParams; ++k) sum += j(k) * j(k) * sigma0_(k) * sigma0_(k);
     return sum;
   }
 
@@ -710,8 +709,8 @@ class AccelField {
       const Scalar s = sigma0_(kBiasX + i);
       sigma0_(kBiasX + i) = std::sqrt(s * s + c * c);
     }
-    prior_sigma_ = sigma0_;  // what the rests determine is judged against the widened prior
-    solution_ok_ = false;    // it described the cells before the change
+    // (what the rests determine is judged against the widened prior)
+    solution_ok_ = false;  // it described the cells before the change
     // The published model stays what the device applies until the cells support a new one, with
     // its bias's sigma widened alike: honest meanwhile, and the rests that follow agree with it.
     for (int i = 0; i < 3; ++i) {
@@ -783,8 +782,7 @@ class AccelField {
     // then has more than one exact solution: a local sigma says nothing of which one it found.
     Scalar used = Scalar(0);
     for (int k = 0; k < kParams; ++k) {
-      const Scalar share =
-          Scalar(1) - (sigma_(k) * sigma_(k)) / (prior_sigma_(k) * prior_sigma_(k));
+      const Scalar share = Scalar(1) - (sigma_(k) * sigma_(k)) / (sigma0_(k) * sigma0_(k));
       used += share > Scalar(0) ? share : Scalar(0);
     }
     const Scalar dof = static_cast<Scalar>(n_cells_) - used;
@@ -841,8 +839,8 @@ class AccelField {
   Scalar reference_c_ = Scalar(25);
   Scalar min_c_ = std::numeric_limits<Scalar>::infinity();
   Scalar max_c_ = -std::numeric_limits<Scalar>::infinity();
-  Vector theta0_ = Vector::Zero(), sigma0_ = Vector::Ones();  // the prior
-  Vector prior_sigma_ = Vector::Ones();  // the prior's sigma (since start or the last change)
+  // The prior (since start or the last change, which widens its bias's sigma).
+  Vector theta0_ = Vector::Zero(), sigma0_ = Vector::Ones();
   Vector theta_ = Vector::Zero(), sigma_ = Vector::Ones();  // the solve
   Vector published_ = Vector::Zero(), published_sigma_ = Vector::Ones();
   Scalar published_cov_[kPacked] = {};  // the published model's covariance, packed

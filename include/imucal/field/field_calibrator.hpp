@@ -383,15 +383,17 @@ class FieldCalibrator {
     {  // the magnetometer's model, when its scale is set: from the stored calibration if usable
       AccelFieldSettings<Scalar> m = mag_norm_settings(settings.mag);
       AccelCalibration<Scalar> stored;
-      mag_frame_.setIdentity();
-      mag_like_ = MagCalibration<Scalar>{};
-      const bool usable = mag != nullptr && m.enabled && mag_prior(*mag, stored, mag_frame_);
-      if (usable) {
-        m.gravity = mag->field_ut;  // the strength the stored soft iron gives
-        mag_like_ = *mag;
-      } else {
-        mag_frame_.setIdentity();
+      bool usable = false;
+      if constexpr (MagCells > 0) {
+        mag_kept_.frame.setIdentity();
+        mag_kept_.like = MagCalibration<Scalar>{};
+        usable = mag != nullptr && m.enabled && mag_prior(*mag, stored, mag_kept_.frame);
+        if (usable)
+          mag_kept_.like = *mag;
+        else
+          mag_kept_.frame.setIdentity();
       }
+      if (usable) m.gravity = mag->field_ut;  // the strength the stored soft iron gives
       const Status s = mag_.start(m, usable ? &stored : nullptr, nullptr, Scalar(25));
       if (s == Status::kInvalidArgument) {
         valid_ = false;
@@ -672,13 +674,18 @@ class FieldCalibrator {
   // iron in the prior's frame, hard iron, their sigmas, the field strength; false before its
   // first publication (out unchanged).
   bool mag_calibration(MagCalibration<Scalar>& out) const {
-    if (!mag_.enabled() || !mag_.published()) return false;
-    AccelCalibration<Scalar> model;
-    TemperatureBias<Scalar> unused;
-    mag_.model(model, unused);
-    mag_from_model(model, mag_frame_, mag_field_ut_, mag_like_, out);
-    out.samples = static_cast<int>(mag_.cells());
-    return true;
+    if constexpr (MagCells > 0) {
+      if (!mag_.enabled() || !mag_.published()) return false;
+      AccelCalibration<Scalar> model;
+      TemperatureBias<Scalar> unused;
+      mag_.model(model, unused);
+      mag_from_model(model, mag_kept_.frame, mag_field_ut_, mag_kept_.like, out);
+      out.samples = static_cast<int>(mag_.cells());
+      return true;
+    } else {
+      (void)out;
+      return false;
+    }
   }
   const AccelField<Scalar, MagCells>& mag_field() const { return mag_; }
   const FieldCounts& counts() const { return counts_; }
@@ -881,31 +888,33 @@ class FieldCalibrator {
 
   // The oldest rest piece waiting for the magnetometer's model.
   void add_mag_piece() {
-    const MagPiece& p = mag_pieces_[mag_first_];
-    mag_first_ ^= 1u;
-    --mag_due_;
-    Scalar s = Scalar(0);
-    Vector3<Scalar> up;
-    bool same_pose = false;
-    const Scalar other =
-        dip_disagreement(p.mag, p.acc, p.t, Scalar(0), Scalar(-1), s, up, same_pose);
-    const AccelFieldEvent e = mag_.add(p.mag, p.variance, std::numeric_limits<Scalar>::quiet_NaN(),
-                                       p.end_us, p.group, other);
-    if (p.end_us >= mag_doubt_us_) mag_doubt_us_ = 0;       // judged what the look doubted
-    if (e == AccelFieldEvent::kNone && std::isfinite(s)) {  // taken: the dip's mean and spread
-      if (dip_n_ < Scalar(50)) dip_n_ += Scalar(1);         // ... over the last fifty or so
-      const Scalar d = s - dip_mean_;
-      dip_mean_ += d / dip_n_;
-      dip_m2_ += d * (s - dip_mean_) - (dip_n_ >= Scalar(50) ? dip_m2_ / dip_n_ : Scalar(0));
-      if (!same_pose) pose_n_ = 0u;
-      pose_up_ = up;
-      ++pose_n_;
-      pose_dip_ += (s - pose_dip_) / static_cast<Scalar>(pose_n_ < 50u ? pose_n_ : 50u);
-    } else if (e == AccelFieldEvent::kChangeDetected) {
-      reset_dip();
+    if constexpr (MagCells > 0) {  // else no piece ever waits
+      const MagPiece& p = mag_kept_.pieces[mag_first_];
+      mag_first_ ^= 1u;
+      --mag_due_;
+      Scalar s = Scalar(0);
+      Vector3<Scalar> up;
+      bool same_pose = false;
+      const Scalar other =
+          dip_disagreement(p.mag, p.acc, p.t, Scalar(0), Scalar(-1), s, up, same_pose);
+      const AccelFieldEvent e = mag_.add(
+          p.mag, p.variance, std::numeric_limits<Scalar>::quiet_NaN(), p.end_us, p.group, other);
+      if (p.end_us >= mag_doubt_us_) mag_doubt_us_ = 0;       // judged what the look doubted
+      if (e == AccelFieldEvent::kNone && std::isfinite(s)) {  // taken: the dip's mean and spread
+        if (dip_n_ < Scalar(50)) dip_n_ += Scalar(1);         // ... over the last fifty or so
+        const Scalar d = s - dip_mean_;
+        dip_mean_ += d / dip_n_;
+        dip_m2_ += d * (s - dip_mean_) - (dip_n_ >= Scalar(50) ? dip_m2_ / dip_n_ : Scalar(0));
+        if (!same_pose) pose_n_ = 0u;
+        pose_up_ = up;
+        ++pose_n_;
+        pose_dip_ += (s - pose_dip_) / static_cast<Scalar>(pose_n_ < 50u ? pose_n_ : 50u);
+      } else if (e == AccelFieldEvent::kChangeDetected) {
+        reset_dip();
+      }
+      model_took(e, mag_, FieldSensor::kMag, p.t, counts_.mag_held, counts_.mag_implausible,
+                 counts_.mag_changes);
     }
-    model_took(e, mag_, FieldSensor::kMag, p.t, counts_.mag_held, counts_.mag_implausible,
-               counts_.mag_changes);
   }
 
   // The field's angle to gravity through the published model, against the rests' taken before:
@@ -1355,16 +1364,18 @@ class FieldCalibrator {
       model_took(e, accel_, FieldSensor::kAccel, p.t, counts_.accel_held, counts_.accel_implausible,
                  counts_.accel_changes);
     }
-    if (mag_.enabled() && p.has_mag) {  // and the field held still over them: the magnetometer's,
-      // in a later call (the cost of one call stays one model's)
-      if (mag_due_ == 2) add_mag_piece();
-      MagPiece& m = mag_pieces_[(mag_first_ + mag_due_++) % 2];
-      m.mag = p.mag;
-      m.acc = p.acc;
-      m.variance = p.mag_var / Scalar(3);
-      m.end_us = p.end_us;
-      m.group = p.group;
-      m.t = p.t;
+    if constexpr (MagCells > 0) {
+      if (mag_.enabled() && p.has_mag) {  // and the field held still over them: the
+        // magnetometer's, in a later call (the cost of one call stays one model's)
+        if (mag_due_ == 2) add_mag_piece();
+        MagPiece& m = mag_kept_.pieces[(mag_first_ + mag_due_++) % 2];
+        m.mag = p.mag;
+        m.acc = p.acc;
+        m.variance = p.mag_var / Scalar(3);
+        m.end_us = p.end_us;
+        m.group = p.group;
+        m.t = p.t;
+      }
     }
     took_ = true;
     last_taken_group_ = p.group;
@@ -1653,7 +1664,6 @@ class FieldCalibrator {
     std::uint64_t end_us = 0;
     std::uint32_t group = 0;
   };
-  MagPiece mag_pieces_[2] = {};
   unsigned mag_first_ = 0, mag_due_ = 0;  // the oldest, and how many wait
   // The dip's sine over the rests taken since the last change: count (capped), mean, and the sum
   // of squared deviations.
@@ -1668,10 +1678,17 @@ class FieldCalibrator {
   std::uint64_t mag_offered_us_ = 0;  // when a single reading was last offered
   std::uint64_t mag_looked_us_ = 0;   // when one was last looked at (look_at_mag())
   std::uint64_t mag_doubt_us_ = 0;    // when one at rest disagreed, until judged (0: none)
-  Matrix3<Scalar> mag_frame_ =
-      Matrix3<Scalar>::Identity();     // the soft iron's frame, from the prior
-  MagCalibration<Scalar> mag_like_{};  // the prior's (its alignment's notes), or empty
-  Scalar mag_field_ut_ = Scalar(50);   // the field strength the model's norm is
+  // What only the magnetometer's model keeps (nothing without one, MagCells 0): the rest pieces
+  // taken for it, the soft iron's frame from the prior, and the prior (its alignment's notes) or
+  // an empty calibration.
+  struct MagKept {
+    MagPiece pieces[2] = {};
+    Matrix3<Scalar> frame = Matrix3<Scalar>::Identity();
+    MagCalibration<Scalar> like{};
+  };
+  struct NoMagKept {};
+  std::conditional_t<(MagCells > 0), MagKept, NoMagKept> mag_kept_{};
+  Scalar mag_field_ut_ = Scalar(50);  // the field strength the model's norm is
   Scalar mag_reach_ = std::numeric_limits<Scalar>::infinity();  // |reading| beyond: a glitch
   Scalar mag_inner_ = std::numeric_limits<Scalar>::infinity();  // each axis within: no glitch
   // The gyro's misalignment and scale, the piece a move into the next taken one starts from, the
