@@ -371,9 +371,12 @@ class RawSums {
         va_q8_ = static_cast<std::int32_t>(to_u32_limit(
             static_cast<Scalar>(va_q8_) * (Scalar(1) - w_old) / (Scalar(1) - w), 0x7FFFFFFFu));
       weight_q16_ = static_cast<std::int32_t>(w * Scalar(65536));
-      // |d| <= fit_ keeps d * weight_q16_ within 31 bits.
-      fit_ = weight_q16_ > 0 ? 0x7FFFFFFFu / static_cast<std::uint32_t>(weight_q16_) : 0u;
-      fit_ = fit_ < (1u << 30) ? fit_ : (1u << 30);
+      // |d| <= fit_ keeps d * weight_q16_ within 31 bits (read only where a long multiply is a
+      // call).
+      if constexpr (kLongMultiplyIsACall) {
+        fit_ = weight_q16_ > 0 ? 0x7FFFFFFFu / static_cast<std::uint32_t>(weight_q16_) : 0u;
+        fit_ = fit_ < (1u << 30) ? fit_ : (1u << 30);
+      }
     }
     if (new_accel)
       accel_max_q8_ = static_cast<std::int32_t>(
