@@ -16,7 +16,9 @@ bench_stream_insn's first 51175 regions are the add() calls, one per sample of t
 recording: with '.' as FUNCTIONS, where add()'s instructions go, averaged over every sample
 (initial rest, rests and moves together). The programs are built with -g1 (bench/insn_cores.sh
 builds them in build/insn/CORE). Built with -DIMUCAL_BENCH_RAW_FIRST, bench_stream_insn's first
-51175 regions are add_raw()'s instead; built with -DIMUCAL_BENCH_PROFILE_FIELD, bench_field_insn's
+51175 regions are add_raw()'s instead, and with -DIMUCAL_BENCH_PROFILE_STILL as well its regions
+are only those of the frames that come while the calibrator is still after the initial rest
+(REGIONS 0: all of them), the per-frame cost at rest; built with -DIMUCAL_BENCH_PROFILE_FIELD, bench_field_insn's
 regions are the field calibrator's add_raw() calls alone (REGIONS 0: all of them), and with
 -DIMUCAL_BENCH_PROFILE_STILL as well only those of still frames while no model solves (a rest
 judged in one of them still counts). For example:
