@@ -704,12 +704,12 @@ class AccelField {
     n_cells_ = 0;
     theta0_ = published_;
     sigma0_ = published_sigma_;
+    // What the rests determine from now on is judged against this widened prior.
     const Scalar c = settings_.change_sigma / settings_.gravity;
     for (int i = 0; i < 3; ++i) {
       const Scalar s = sigma0_(kBiasX + i);
       sigma0_(kBiasX + i) = std::sqrt(s * s + c * c);
     }
-    // (what the rests determine is judged against the widened prior)
     solution_ok_ = false;  // it described the cells before the change
     // The published model stays what the device applies until the cells support a new one, with
     // its bias's sigma widened alike: honest meanwhile, and the rests that follow agree with it.
