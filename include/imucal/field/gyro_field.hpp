@@ -286,8 +286,7 @@ class GyroField {
     Matrix p = covariance();
     if (!kalman(m, theta_, theta_, p, chi2_)) {
       ++refused_;
-      return chi2_ > Scalar(0) && changed(m, p) ? GyroFieldEvent::kChanged
-                                                : GyroFieldEvent::kRefused;
+      return chi2_ > Scalar(0) && changed(m) ? GyroFieldEvent::kChanged : GyroFieldEvent::kRefused;
     }
     detail::pack_symmetric<Scalar, N>(p, p_.data());
     ++moves_;
@@ -295,13 +294,12 @@ class GyroField {
     // The refused moves kept stay linearised where the estimate now stands.
     const Vector step = theta_ - before;
     for (int k = 0; k < kept_; ++k) moves_kept_[k].r += moves_kept_[k].j * step;
-    return consider_publishing(p);
+    return consider_publishing();
   }
 
   // A move outside the gate is kept; true when it and the ones kept before it prove that the
-  // matrix changed (see the header), which is then published. p: the estimate's covariance,
-  // unpacked.
-  bool changed(const Move& m, Matrix p) {
+  // matrix changed (see the header), which is then published.
+  bool changed(const Move& m) {
     moves_kept_[next_] = m;
     next_ = (next_ + 1) % kChangeMoves;
     if (kept_ < kChangeMoves) ++kept_;
@@ -311,6 +309,7 @@ class GyroField {
     const int first = (next_ + kChangeMoves - need) % kChangeMoves;
     if (m.seen - moves_kept_[first].seen >= static_cast<std::uint32_t>(2 * need)) return false;
     Vector theta = theta_;
+    Matrix p = covariance();
     for (int i = 0; i < N; ++i) {
       const Scalar t =
           i >= kGyroScaleX ? settings_.scale_sigma * theta_(i) : settings_.misalignment_sigma;
@@ -334,8 +333,7 @@ class GyroField {
     return true;
   }
 
-  // p: the estimate's covariance (p_), unpacked.
-  GyroFieldEvent consider_publishing(const Matrix& p) {
+  GyroFieldEvent consider_publishing() {
     bool no_worse = true, much_better = false;
     for (int i = 0; i < N; ++i) {
       const Scalar now = p_(diagonal(i)), before = published_p_(diagonal(i));
@@ -345,7 +343,7 @@ class GyroField {
     if (!no_worse) return GyroFieldEvent::kTaken;
     // chi-square of the difference with both covariances, Jacobi-scaled (the scales and the
     // misalignments differ by orders of magnitude in the model's units).
-    Matrix m = p + detail::unpack_symmetric<Scalar, N>(published_p_.data());
+    Matrix m = covariance() + detail::unpack_symmetric<Scalar, N>(published_p_.data());
     Vector x = theta_ - published_, y;
     for (int i = 0; i < N; ++i) {
       if (!(m(i, i) > Scalar(0))) return GyroFieldEvent::kTaken;
