@@ -437,10 +437,9 @@ const Burst kBursts[] = {{0, false, 0}, {2, false, 0}, {2, false, 1}, {2, false,
 #endif
 
 template <class F>
-void sweep_all(const char* name, bool with_bursts) {
+void sweep_all(const char* name) {
   Tally t;
   for (const Burst& b : kBursts) {
-    if (b.reads != 0 && !with_bursts) continue;
     for (TornReads torn : {TornReads::kEccError, TornReads::kArbitrary, TornReads::kWeak}) {
       sweep<F>(torn, false, b, t);
       if (testing::Test::HasFatalFailure()) return;
@@ -455,18 +454,9 @@ void sweep_all(const char* name, bool with_bursts) {
   EXPECT_GT(t.new_seen, 0);
 }
 
-// Small targets: no bursts on the largest flash (128 KiB erase units, 1-byte units: 512 KiB
-// reset per fault, 80 s under the emulator with them).
-#ifdef IMUCAL_SMALL_TARGET
-constexpr bool kSmallTarget = true;
-#else
-constexpr bool kSmallTarget = false;
-#endif
-
 #define IMUCAL_SWEEP(erase, unit)                                                \
   TEST(RecordStoreFaults, Erase##erase##Unit##unit) {                            \
-    sweep_all<SimEccFlash<2 * (erase), (erase), 256, (unit)>>(                   \
-        #erase "/" #unit, !kSmallTarget || !((erase) == 131072 && (unit) == 1)); \
+    sweep_all<SimEccFlash<2 * (erase), (erase), 256, (unit)>>(#erase "/" #unit); \
   }
 
 IMUCAL_SWEEP(2048, 1)

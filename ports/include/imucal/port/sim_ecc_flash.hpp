@@ -35,12 +35,14 @@ class SimEccFlash final : public FlashRegion {
   static constexpr std::uint32_t kNever = ~std::uint32_t(0);
   static constexpr std::uint32_t kUnits = Size / Unit;
 
-  SimEccFlash() { reset(); }
+  SimEccFlash() {
+    for (std::uint32_t& d : dirty_) d = kUnitsPerErase;  // the arrays hold anything yet
+    reset();
+  }
 
   // Erased, powered, no fault armed, counters at zero.
   void reset() {
-    std::memset(bytes_, 0xFF, sizeof bytes_);
-    std::memset(state_, kErased, sizeof state_);
+    for (std::uint32_t e = 0; e < kErases; ++e) erase_units(e * kUnitsPerErase, kUnitsPerErase);
     powered_ = true;
     cut_at_ = report_at_ = kNever;
     clear_read_faults();
@@ -110,6 +112,7 @@ class SimEccFlash final : public FlashRegion {
       }
       std::memcpy(bytes_ + u * Unit, src, Unit);
       state_[u] = kProgrammed;
+      touch(u);
     }
     return report ? Status::kStorageError : Status::kOk;
   }
@@ -164,12 +167,18 @@ class SimEccFlash final : public FlashRegion {
   bool torn(std::uint32_t offset) const {
     return offset < Size && state_[offset / Unit] >= kTornEcc;
   }
-  std::uint8_t* raw() { return bytes_; }  // for corrupting bytes in tests
+  // For corrupting bytes in tests: every unit may then differ from erased.
+  std::uint8_t* raw() {
+    for (std::uint32_t& d : dirty_) d = kUnitsPerErase;
+    return bytes_;
+  }
   const std::uint8_t* raw() const { return bytes_; }
 
  private:
   enum : std::uint8_t { kErased, kProgrammed, kTornEcc, kTornArbitrary, kTornWeak };
   static constexpr int kAreas = 2;
+  static constexpr std::uint32_t kErases = Size / EraseSize;
+  static constexpr std::uint32_t kUnitsPerErase = EraseSize / Unit;
   struct Area {  // a burst of misreads of one area
     std::uint32_t offset = 0, size = 0;
     int reads = 0;  // misreads left
@@ -184,13 +193,26 @@ class SimEccFlash final : public FlashRegion {
     powered_ = false;
     return true;
   }
+  // Erases the first n units of the erase unit that begins at unit `first`. Only those up to
+  // its high-water mark can differ from erased (a save programs the first few hundred bytes of
+  // a 128 KiB sector): the rest is not written again.
   void erase_units(std::uint32_t first, std::uint32_t n) {
-    std::memset(bytes_ + first * Unit, 0xFF, n * Unit);
-    std::memset(state_ + first, kErased, n);
+    std::uint32_t& d = dirty_[first / kUnitsPerErase];
+    const std::uint32_t m = n < d ? n : d;
+    std::memset(bytes_ + first * Unit, 0xFF, m * Unit);
+    std::memset(state_ + first, kErased, m);
+    if (n >= d) d = 0;
+  }
+  // Unit u may differ from erased from now on.
+  void touch(std::uint32_t u) {
+    std::uint32_t& d = dirty_[u / kUnitsPerErase];
+    const std::uint32_t end = u % kUnitsPerErase + 1;
+    d = end > d ? end : d;
   }
   // A unit left half-done: `intended` is what a program meant to write (nullptr: an erase).
   void tear(std::uint32_t u, const std::uint8_t* intended) {
     std::uint8_t* p = bytes_ + u * Unit;
+    touch(u);
     switch (torn_) {
       case TornReads::kEccError:
         state_[u] = kTornEcc;
@@ -217,6 +239,8 @@ class SimEccFlash final : public FlashRegion {
 
   std::uint8_t bytes_[Size];
   std::uint8_t state_[kUnits];
+  // Per erase unit: how many of its program units, from its start, may differ from erased.
+  std::uint32_t dirty_[kErases];
   bool powered_ = true;
   TornReads torn_ = TornReads::kEccError;
   std::uint32_t cut_at_ = kNever, report_at_ = kNever;
