@@ -7,8 +7,8 @@
 # not: imucal's parts, the footprint program and the example firmware use no libstdc++ code.
 #   toolchains/riscv-libstdcxx.sh ARCH ABI PREFIX        e.g. rv32imac ilp32 build/libstdcxx/...
 # Installs the headers in PREFIX/include/c++/VERSION and libstdc++.a, libsupc++.a in PREFIX/lib.
-# About three minutes on 2 cores (no debug information: a sixth less). toolchains/riscv-picolibc.cmake
-# runs it when PREFIX has no library yet.
+# About three minutes on 2 cores (no debug information: a sixth less).
+# toolchains/riscv-picolibc.cmake runs it when PREFIX has no library yet.
 # IMUCAL_GCC_SOURCE_TARBALL: the GCC source tarball, if not Debian's.
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: $0 ARCH ABI PREFIX" >&2; exit 2; }

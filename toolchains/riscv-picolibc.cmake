@@ -14,8 +14,8 @@ set(CMAKE_ASM_COMPILER riscv64-unknown-elf-gcc)
 set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
 
 # Debian ships no C++ library for this compiler: libstdc++ is built once per multilib from
-# Debian's source of the same GCC (toolchains/riscv-libstdcxx.sh, about three minutes), into a folder
-# that every build folder of the source tree shares.
+# Debian's source of the same GCC (toolchains/riscv-libstdcxx.sh, about three minutes), into a
+# folder that every build folder of the source tree shares.
 set(IMUCAL_RISCV_LIBSTDCXX
     "${CMAKE_CURRENT_LIST_DIR}/../build/libstdcxx/${IMUCAL_RISCV_ARCH}-${IMUCAL_RISCV_ABI}"
     CACHE PATH "Where libstdc++ for the RISC-V target is (built there if missing)")
