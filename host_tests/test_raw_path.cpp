@@ -111,6 +111,52 @@ TEST(SubBlock, CountsGiveTheSumsOfTheSameReadings) {
   }
 }
 
+// A still sub-block holds up to kStillSubBlockFactor * kMaxSubBlockSamples (512) frames: at the
+// extremes of the counts (every accelerometer reading at full scale against a reference at the
+// other end, the gyro at full scale, the steps irregular) its integer sums are still exact: the
+// same as the same readings summed in double. With no thresholds every frame is still, and with
+// no rotation bound nothing closes it but the caller.
+TEST(SubBlock, AStillSubBlockOfTheMostFramesSumsExactly) {
+  constexpr int kFrames = kStillSubBlockFactor * kMaxSubBlockSamples;
+  SubBlockLimits<double> l;
+  l.acc_ref = Vector3<double>(-32768, 32767, -32768);
+  SubBlock<double> raw;
+  SubBlock<double> flt;
+  raw.start(l);
+  flt.start(l);
+  std::uint32_t t = 0;
+  for (int k = 0; k < kFrames; ++k) {
+    const double sign = k % 3 == 0 ? -1.0 : 1.0;
+    RawFrame f;
+    for (int i = 0; i < 3; ++i) {
+      f.acc[i] = static_cast<std::int16_t>(i == 1 ? -32768 : 32767);
+      f.gyro[i] = static_cast<std::int16_t>(sign * (i == 1 ? -32767.0 : 32767.0));
+    }
+    const std::uint32_t step = k == 0 ? 0u : 900u + 200u * static_cast<std::uint32_t>(k % 3);
+    t += step;
+    f.t_us = t;
+    ASSERT_TRUE(raw.add(f, step, false)) << k;
+    ASSERT_TRUE(flt.add(sample_of<double>(f), step, false)) << k;
+    ASSERT_TRUE(raw.still());
+    // The temperature far from the stream's reference: its sum passes 32 bits.
+    raw.add_temperature(1 << 25);
+    flt.add_temperature(1 << 25);
+  }
+  ASSERT_EQ(raw.size(), static_cast<std::uint32_t>(kFrames));
+  const SubBlockStats<double> r = raw.finish(), s = flt.finish();
+  EXPECT_EQ(r.n, s.n);
+  EXPECT_EQ(r.intervals, s.intervals);
+  EXPECT_EQ(r.duration_us, s.duration_us);
+  EXPECT_EQ(r.acc_ref, s.acc_ref);
+  EXPECT_EQ(r.acc_sum, s.acc_sum);  // 512 x 65535 each
+  EXPECT_EQ(r.energy, s.energy);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(r.seg.alpha(i), s.seg.alpha(i), 1e-12 * std::abs(s.seg.alpha(i))) << i;
+  EXPECT_EQ(r.seg.beta.norm(), 0.0);  // still: first order
+  EXPECT_EQ(r.temp_n, static_cast<std::uint32_t>(kFrames));
+  EXPECT_EQ(r.temp_sum, kFrames * 8192.0);  // 2^34 / 4096
+}
+
 // A stream that changes kind (readings, then frames of the same counts, or back) goes on from
 // where the moving averages were: readings that walk the accelerometer 1,000 counts away from
 // where the detector started, then frames there, are taken, not refused as glitches against the

@@ -272,7 +272,7 @@ class StreamChecks {
     has_gyro_ = s.has_gyro;
     frozen_limit_us_ = static_cast<std::uint32_t>(s.frozen_seconds * Scalar(1e6));
     // Limits within +-4096 deg C: a reading that saturated the conversion (infinity) is outside
-    // them, and two readings inside differ by at most 2^25 (an int32 sum, SubBlockTemperature).
+    // them, and two readings inside differ by at most 2^25 (a 48-bit sum, SubBlockTemperature).
     temperature_min_q_ = clamp_temperature_limit(detail::to_temperature_q(s.temperature_min_c));
     temperature_max_q_ = clamp_temperature_limit(detail::to_temperature_q(s.temperature_max_c));
     nominal_rate_ = s.nominal_rate_hz;

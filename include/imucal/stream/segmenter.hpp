@@ -38,8 +38,8 @@ namespace imucal {
 template <typename Scalar>
 struct SegmenterSettings {
   // A sub-block (the detector's step) lasts at most this long, and holds at most the segmenter's
-  // SubBlockSamples samples: the per-sample work is integer sums (or float sums), the float
-  // work happens once a sub-block.
+  // SubBlockSamples samples, kStillSubBlockFactor times as many while still: the per-sample work
+  // is integer sums (or float sums), the float work happens once a sub-block.
   Scalar sub_block_seconds = Scalar(0.1);
   Scalar block_seconds = Scalar(0.1);     // granularity of the trimming
   Scalar trim_seconds = Scalar(0.25);     // cut from a rest's end before the motion showed
@@ -57,6 +57,9 @@ class Segmenter {
   static_assert(DelayBlocks >= 2, "delay line too short");
   static_assert(SubBlockSamples >= 1 && SubBlockSamples <= kMaxSubBlockSamples,
                 "sub-block of 1 to kMaxSubBlockSamples samples");
+  // The most samples of a moving sub-block, and of a still one.
+  static constexpr std::uint32_t kMovingSamples = SubBlockSamples;
+  static constexpr std::uint32_t kStillSamples = kStillSubBlockFactor * SubBlockSamples;
   using Block = SampleBlock<Scalar>;
 
   // Settings valid for this delay line (trim_seconds fits in it; durations far from 2^32 us).
@@ -140,9 +143,15 @@ class Segmenter {
       sub_.release_done();
     }
     if (sub_.size() == 1) set_sub_span();
-    if (sub_.size() >= static_cast<std::uint32_t>(SubBlockSamples) ||
-        x.t_us - sub_.t_begin() >= sub_span_us_ || sub_.template energy_full<Input>())
-      close_sub_block(sink);
+    // A still sub-block may hold kStillSubBlockFactor times as many samples (its rotation bound
+    // that many times tighter past kMovingSamples).
+    const std::uint32_t n = sub_.size();
+    const bool full =
+        n < kMovingSamples
+            ? x.t_us - sub_.t_begin() >= sub_span_us_ || sub_.template energy_full<Input>(false)
+            : !sub_.still() || n >= kStillSamples || x.t_us - sub_.t_begin() >= sub_span_us_ ||
+                  sub_.template energy_full<Input>(true);
+    if (full) close_sub_block(sink);
     return true;
   }
 
@@ -267,9 +276,9 @@ class Segmenter {
     mean_follows_ = true;
     const SegmentBounds<Scalar>& bounds = sink.segment_bounds();
     // Rotation bound of the next sub-block: its path duration * rms|u| at most a quarter of a
-    // segment's: sum |u|^2 <= (max_angle / 4)^2 / (n h^2), with n the most samples it holds and
-    // h the mean interval (to the microsecond: it and the moving averages' weight are worked
-    // out again only when that changes).
+    // segment's: sum |u|^2 <= (max_angle / 4)^2 / (n h^2), with n the most samples it holds
+    // (moving or still) and h the mean interval (to the microsecond: it and the moving averages'
+    // weight are worked out again only when that changes).
     if (s.intervals > 0) {
       const std::uint32_t us = (s.duration_us + s.intervals / 2) / s.intervals;
       if (us != interval_us_ || detail::bits_differ(bounds.max_angle, bound_angle_)) {
@@ -277,7 +286,7 @@ class Segmenter {
         bound_angle_ = bounds.max_angle;
         interval_ = static_cast<Scalar>(us) * Scalar(1e-6);
         const Scalar a = Scalar(0.25) * bounds.max_angle / interval_;
-        energy_max_ = a * a / static_cast<Scalar>(SubBlockSamples);
+        energy_max_ = a * a / static_cast<Scalar>(kMovingSamples);
         weight_ = interval_ / (stillness_seconds_ + interval_);
       }
     }

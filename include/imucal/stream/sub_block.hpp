@@ -2,8 +2,9 @@
 // imucal/stream/sub_block.hpp: the per-sample work of the stream layer. Each sample updates the
 // stillness detector's two moving averages (stillness.hpp) and is summed into a sub-block, all
 // still or all moving (a sample whose state differs starts a new one); a sub-block also ends at
-// SubBlockSamples samples, sub_block_seconds, or a rotation bound. The rest of the detector, the
-// blocks and the segment statistics then work once per sub-block on its sums (the strapdown
+// sub_block_seconds, a rotation bound, or SubBlockSamples samples (kStillSubBlockFactor times as
+// many while still, so that a still sub-block lasts a block at any rate). The rest of the detector,
+// the blocks and the segment statistics then work once per sub-block on its sums (the strapdown
 // two-rate design: a cheap fast loop, the float work at a lower rate).
 //
 // One accumulator (SubBlock) takes the samples in either of two arithmetics, one per stream, both
@@ -39,8 +40,13 @@
 
 namespace imucal {
 
-// Most samples in one sub-block: the integer sums' bounds hold for this many 16-bit samples.
+// Most samples in one moving sub-block: the integer sums' bounds (the second-order terms'
+// included) hold for this many 16-bit samples.
 constexpr int kMaxSubBlockSamples = 32;
+// A still sub-block (first order: no second-order terms) may hold this many times as many: its
+// sums' bounds hold for kStillSubBlockFactor * kMaxSubBlockSamples (512) 16-bit samples, so that
+// at any rate up to 2 kHz a still sub-block lasts a block (0.25 s), as it does at 100 Hz.
+constexpr int kStillSubBlockFactor = 16;
 
 // What the detector sets for each sub-block.
 template <typename Scalar>
@@ -58,7 +64,9 @@ struct SubBlockLimits {
   Scalar dev_clip = std::numeric_limits<Scalar>::infinity();     // clip of one axis's square
   Scalar energy_clip = std::numeric_limits<Scalar>::infinity();  // clip of one |u|^2
   Scalar glitch2 = std::numeric_limits<Scalar>::infinity();      // a deviation beyond: a glitch
-  Scalar energy_max = std::numeric_limits<Scalar>::infinity();   // sum |u|^2 that closes it
+  // sum |u|^2 that closes it (kStillSubBlockFactor times less while still: it may hold that
+  // many times as many samples)
+  Scalar energy_max = std::numeric_limits<Scalar>::infinity();
   // acc_ref is the accumulator's own moving mean (where its last sample left it): the integer
   // accumulator takes its reference from its fixed-point mean, without a conversion.
   bool acc_ref_is_mean = false;
@@ -90,22 +98,33 @@ struct SubBlockStats {
 };
 
 // A sub-block's temperatures, in 1/4096 deg C relative to the stream's reference: summed exactly
-// in 32 bits (the front end's range check keeps each within 2^25 of the reference, so at most
-// kMaxSubBlockSamples of them within 2^30), converted once a sub-block.
-struct SubBlockTemperature {
-  std::int32_t sum = 0;
-  std::uint32_t n = 0;
-
-  void clear() { sum = 0, n = 0; }
+// in 48 bits (the front end's range check keeps each within 2^25 of the reference, so at most
+// kStillSubBlockFactor * kMaxSubBlockSamples of them within 2^34), in the 8 bytes of a 32-bit sum
+// and count; converted once a sub-block.
+class SubBlockTemperature {
+ public:
+  void clear() { low_ = 0, high_ = 0, n_ = 0; }
   void add(std::int32_t q) {
-    sum += q;
-    ++n;
+    const std::int64_t sum = value() + q;
+    low_ = static_cast<std::uint32_t>(sum);
+    high_ = static_cast<std::int16_t>(sum >> 32);
+    ++n_;
   }
   template <typename Scalar>
   void finish(SubBlockStats<Scalar>& s) const {
-    s.temp_sum = detail::from_temperature_q<Scalar>(sum);
-    s.temp_n = n;
+    s.temp_sum = detail::to_scalar<Scalar>(value()) * Scalar(1.0 / detail::kTemperatureQ);
+    s.temp_n = n_;
   }
+
+ private:
+  std::int64_t value() const {
+    return static_cast<std::int64_t>(high_) * (std::int64_t{1} << 32) +
+           static_cast<std::int64_t>(low_);
+  }
+
+  std::uint32_t low_ = 0;  // the sum's low 32 bits
+  std::int16_t high_ = 0;  // and its high 16
+  std::uint16_t n_ = 0;
 };
 
 // A sub-block that ended because a sample's state differed (the sample began the next one): the
@@ -285,7 +304,10 @@ class FloatSums {
       sums_.seg.add(r.m, h.dt);
   }
   void keep_rate(const Rate& r) { u_prev_ = r.u; }
-  bool energy_full(const SubBlockLimits<Scalar>& l) const { return sums_.energy > l.energy_max; }
+  bool energy_full(const SubBlockLimits<Scalar>& l, bool long_still) const {
+    return sums_.energy >
+           (long_still ? l.energy_max * Scalar(1.0 / kStillSubBlockFactor) : l.energy_max);
+  }
 
   // The sums into s (whose counts are set).
   void finish(SubBlockStats<Scalar>& s, const SubBlockLimits<Scalar>& /*l*/) const {
@@ -311,10 +333,11 @@ class FloatSums {
 };
 
 // The arithmetic of 16-bit counts. Every sum is exact in integers: for at most
-// kMaxSubBlockSamples samples the accelerometer's sums fit 32 bits (its squared deviations
-// clamped at 32767 counts a side, a deviation no rest has), the gyro's energy and beta 64 bits,
-// gamma 32 bits. The moving averages are fixed point (raw units^2 x 16), with one sample's weight
-// from the expected interval.
+// kStillSubBlockFactor * kMaxSubBlockSamples samples the accelerometer's sums and the trapezoid's
+// P fit 32 bits (its squared deviations clamped at 32767 counts a side, a deviation no rest has),
+// the gyro's energy and the steps' correction 64 bits; the second-order terms, summed in moving
+// sub-blocks of at most kMaxSubBlockSamples, beta 64 bits and gamma 32 bits. The moving averages
+// are fixed point (raw units^2 x 16), with one sample's weight from the expected interval.
 template <typename Scalar>
 class RawSums {
  public:
@@ -498,7 +521,12 @@ class RawSums {
     u_prev_[1] = r.u[1];
     u_prev_[2] = r.u[2];
   }
-  bool energy_full(const SubBlockLimits<Scalar>& /*l*/) const { return energy_ > energy_max_; }
+  // Past kMaxSubBlockSamples (a still sub-block), the limit is kStillSubBlockFactor (16) times
+  // less: the sum 16 times over is compared (at most 2^45: no overflow).
+  bool energy_full(const SubBlockLimits<Scalar>& /*l*/, bool long_still) const {
+    static_assert(kStillSubBlockFactor == 16, "the shift below");
+    return (long_still ? energy_ << 4 : energy_) > energy_max_;
+  }
 
   // The sums into s (whose counts are set).
   void finish(SubBlockStats<Scalar>& s, const SubBlockLimits<Scalar>& /*l*/) const {
@@ -625,14 +653,15 @@ class SubBlock {
 
   std::uint32_t size() const { return n_; }
   std::uint32_t t_begin() const { return t_begin_; }
-  // The sum of |u|^2 is past the limits' energy_max, in a stream of Input (RawFrame or
-  // ImuSample<Scalar>).
+  // The sum of |u|^2 is past the limits' energy_max (kStillSubBlockFactor times less for a
+  // still sub-block past kMaxSubBlockSamples samples: long_still), in a stream of Input
+  // (RawFrame or ImuSample<Scalar>).
   template <class Input>
-  bool energy_full() const {
+  bool energy_full(bool long_still) const {
     if constexpr (std::is_same<Input, RawFrame>::value)
-      return raw_sums_.energy_full(lim_);
+      return raw_sums_.energy_full(lim_, long_still);
     else
-      return float_sums_.energy_full(lim_);
+      return float_sums_.energy_full(lim_, long_still);
   }
   // The latest sample's state.
   bool still() const { return still_; }
