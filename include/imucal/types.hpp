@@ -143,6 +143,11 @@ template <typename Scalar>
 Scalar from_temperature_q(std::int32_t q) {
   return static_cast<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
 }
+// A sum of them, wider than 32 bits.
+template <typename Scalar>
+Scalar from_temperature_q(std::int64_t q) {
+  return to_scalar<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
+}
 }  // namespace detail
 
 // Every coefficient finite (no NaN, no infinity).

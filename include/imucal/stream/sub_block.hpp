@@ -112,7 +112,7 @@ class SubBlockTemperature {
   }
   template <typename Scalar>
   void finish(SubBlockStats<Scalar>& s) const {
-    s.temp_sum = detail::to_scalar<Scalar>(value()) * Scalar(1.0 / detail::kTemperatureQ);
+    s.temp_sum = detail::from_temperature_q<Scalar>(value());
     s.temp_n = n_;
   }
 
