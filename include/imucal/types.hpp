@@ -145,7 +145,7 @@ Scalar from_temperature_q(std::int32_t q) {
 }
 // A sum of them, wider than 32 bits.
 template <typename Scalar>
-Scalar from_temperature_q(std::int64_t q) {
+Scalar from_temperature_q_sum(std::int64_t q) {
   return to_scalar<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
 }
 }  // namespace detail

@@ -112,7 +112,7 @@ class SubBlockTemperature {
   }
   template <typename Scalar>
   void finish(SubBlockStats<Scalar>& s) const {
-    s.temp_sum = detail::from_temperature_q<Scalar>(value());
+    s.temp_sum = detail::from_temperature_q_sum<Scalar>(value());
     s.temp_n = n_;
   }
 
