@@ -279,6 +279,66 @@ TEST(Fifo, ABatchIsItsFramesOneByOne) {
   EXPECT_EQ(none.add_fifo(nullptr, 3, layout, timing).refused, 3u);
 }
 
+// A FIFO buffer's frames give back the readings written in its layout (both byte orders, the axes
+// in order and not, readings at odd offsets as behind a one-byte header), and the timestamps
+// of a period as first_us + floor(k period_q8 / 256) to the microsecond, past the point where
+// k period_q8 overflows 32 bits; per-frame timestamps as they are.
+TEST(Fifo, FramesReadBackAsWrittenWithTheirTimestamps) {
+  FifoLayout layouts[3];
+  layouts[1].stride = 16;  // a header byte, the accelerometer, the gyro, a temperature byte
+  layouts[1].acc_offset = 1;
+  layouts[1].gyro_offset = 7;
+  layouts[1].big_endian = true;
+  layouts[2].stride = 13;
+  layouts[2].gyro_offset = 0;
+  layouts[2].acc_offset = 7;
+  layouts[2].axis_order[0] = 1;
+  layouts[2].axis_order[1] = 2;
+  layouts[2].axis_order[2] = 0;
+  const std::uint32_t frames = 3000;  // 3000 * 2461538 (104 Hz) needs 33 bits
+  sim::Random rng(5);
+  std::vector<RawFrame> want(frames);
+  for (RawFrame& f : want) {
+    for (int i = 0; i < 3; ++i) {
+      f.acc[i] = static_cast<std::int16_t>(std::lround(rng.uniform(-32768.0, 32767.0)));
+      f.gyro[i] = static_cast<std::int16_t>(std::lround(rng.uniform(-32768.0, 32767.0)));
+    }
+  }
+  want[0].acc[0] = -32768;
+  want[0].gyro[2] = 32767;
+  std::vector<std::uint32_t> stamps(frames);
+  for (std::uint32_t k = 0; k < frames; ++k) stamps[k] = 0xFFFF0000u + 977u * k * k;
+  const std::uint32_t periods[] = {2461538u, 0xFFFFFFFFu, 0u};
+  for (const FifoLayout& layout : layouts) {
+    ASSERT_TRUE(layout.valid());
+    std::vector<std::uint8_t> bytes(std::size_t{frames} * layout.stride, 0xA5);
+    for (std::uint32_t k = 0; k < frames; ++k)
+      test::put_fifo_frame(bytes.data(), k, layout, want[k]);
+    for (const std::uint32_t period_q8 : periods) {
+      const FifoTiming timing{4000000000u, period_q8, nullptr};
+      std::uint32_t mismatches = 0;
+      for (std::uint32_t k = 0; k < frames; ++k) {
+        const RawFrame f = fifo_frame(bytes.data(), k, layout, timing);
+        const auto t =
+            static_cast<std::uint32_t>(timing.first_us + ((std::uint64_t{period_q8} * k) >> 8));
+        bool same = f.t_us == t;
+        for (int i = 0; i < 3; ++i)
+          same = same && f.acc[i] == want[k].acc[i] && f.gyro[i] == want[k].gyro[i];
+        if (!same) ++mismatches;
+      }
+      EXPECT_EQ(mismatches, 0u) << "stride " << layout.stride << ", period_q8 " << period_q8;
+    }
+    const FifoTiming stamped{0u, 2461538u, stamps.data()};
+    std::uint32_t mismatches = 0;
+    for (std::uint32_t k = 0; k < frames; ++k) {
+      const RawFrame f = fifo_frame(bytes.data(), k, layout, stamped);
+      if (f.t_us != stamps[k] || f.acc[1] != want[k].acc[1] || f.gyro[1] != want[k].gyro[1])
+        ++mismatches;
+    }
+    EXPECT_EQ(mismatches, 0u) << "stride " << layout.stride << ", per-frame timestamps";
+  }
+}
+
 // ---- Whole calibrations
 // --------------------------------------------------------------------------
 
