@@ -50,12 +50,16 @@
 // Fixed memory (sizeof docs/field.md states per target), no allocation, no exceptions.
 // Capacities: Events, the decisions waiting to be taken; MagCells, the magnetometer model's cells
 // of field directions (0: built without a magnetometer, its model compiled out, 2,800 B less;
-// settings that enable it are then refused with kInvalidArgument). Header-only.
+// settings that enable it are then refused with kInvalidArgument); GyroMatrix, the gyro's
+// misalignment and scale learned from the moves (false: compiled out with the moves the rest
+// monitor would keep for it, 1,900 B less; the stored matrix is kept as it is, whatever
+// gyro_matrix.enabled says). Header-only.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "imucal/field/accel_field.hpp"
 #include "imucal/field/bias_filter.hpp"
@@ -258,15 +262,16 @@ struct FieldCounts {
   std::uint32_t gyro_matrix_changes = 0;
 };
 
-template <typename Scalar, int Events = 8, int MagCells = 26>
+template <typename Scalar, int Events = 8, int MagCells = 26, bool GyroMatrix = true>
 class FieldCalibrator {
  public:
   using Settings = FieldSettings<Scalar>;
   // The rest monitor: two finished rests queued, three blocks of 0.25 s waiting to be confirmed
   // still (trim_seconds and one block), room for kMoveSegments gyro segments of a move not walked
   // yet (taken one a call as they come; if they pile up, they are coarsened,
-  // solve/move_store.hpp, and the move is not used), sub-blocks of up to 32 samples.
-  static constexpr int kMoveSegments = 4;
+  // solve/move_store.hpp, and the move is not used; none without GyroMatrix), sub-blocks of up
+  // to 32 samples.
+  static constexpr int kMoveSegments = GyroMatrix ? 4 : 0;
   using Monitor = RestMonitor<Scalar, 2, 3, kMoveSegments, 32>;
 
   FieldCalibrator() = default;
@@ -289,8 +294,10 @@ class FieldCalibrator {
     last_t_us_ = 0;
     filter_time_us_ = 0;
     pending_ = candidate_ = false;
-    move_from_ok_ = walk_end_pending_ = false;
-    walk_move_ = 0;
+    if constexpr (GyroMatrix) {
+      matrix_.from_ok = matrix_.end_pending = false;
+      matrix_.move = 0;
+    }
     group_ = 0;
     independent_ = 0;
     last_taken_group_ = 0;
@@ -425,9 +432,11 @@ class FieldCalibrator {
         sigma9(i) = stated_sigma(stated, nominal);
         if (stated > nominal) base_.gyro.sigma(i) = nominal;  // the output says what it uses
       }
-      if (gyro_field_.start(settings.gyro_matrix, prior9, sigma9) != Status::kOk &&
-          result == Status::kOk)
-        result = Status::kNonFiniteInput;
+      if constexpr (GyroMatrix) {
+        if (matrix_.field.start(settings.gyro_matrix, prior9, sigma9) != Status::kOk &&
+            result == Status::kOk)
+          result = Status::kNonFiniteInput;
+      }
     }
     accel_rests_ = 0;
     accel_noise_axis_ = settings.accel_noise / Scalar(3);
@@ -690,7 +699,10 @@ class FieldCalibrator {
   const AccelField<Scalar, MagCells>& mag_field() const { return mag_; }
   const FieldCounts& counts() const { return counts_; }
   const Monitor& monitor() const { return monitor_; }
-  const GyroField<Scalar>& gyro_field() const { return gyro_field_; }
+  template <bool G = GyroMatrix, std::enable_if_t<G, int> = 0>
+  const GyroField<Scalar>& gyro_field() const {
+    return matrix_.field;
+  }
   const Settings& settings() const { return settings_; }
   // The temperature smoothed over temperature_seconds (NaN before any reading).
   Scalar temperature() const { return temperature_; }
@@ -1204,8 +1216,11 @@ class FieldCalibrator {
     // A move counts only between two pieces judged one after the other that did not turn: rests
     // whose gravity direction holds (their rate may disagree with the filter: the move's bias
     // variance then grows by it).
-    const bool from_rest = move_from_ok_;
-    move_from_ok_ = false;
+    [[maybe_unused]] bool from_rest = false;
+    if constexpr (GyroMatrix) {
+      from_rest = matrix_.from_ok;
+      matrix_.from_ok = false;
+    }
     if (p.turned > Scalar(1)) {
       event(FieldEventKind::kRejected, FieldReason::kTurning, p.t, p.turned);
       ++counts_.turning;
@@ -1216,12 +1231,15 @@ class FieldCalibrator {
       ++counts_.no_temperature;
       return;
     }
-    const bool walk_ends = from_rest && p.group == move_from_.group + 1u && gyro_field_.walking();
-    move_from_ = move_end(p);
-    move_from_ok_ = true;
-    if (walk_ends) {
-      walk_end_ = move_from_;  // the move into p: finished once walked
-      walk_end_pending_ = true;
+    if constexpr (GyroMatrix) {
+      const bool walk_ends =
+          from_rest && p.group == matrix_.from.group + 1u && matrix_.field.walking();
+      matrix_.from = move_end(p);
+      matrix_.from_ok = true;
+      if (walk_ends) {
+        matrix_.end = matrix_.from;  // the move into p: finished once walked
+        matrix_.end_pending = true;
+      }
     }
     predict_to(p.end_us);
     const Scalar chi2 = filter_.chi2(p.z, p.r, p.t);
@@ -1427,63 +1445,72 @@ class FieldCalibrator {
   // it was walked; otherwise the next segment the rest monitor holds is walked (a new move begins
   // where its rest was the last piece taken).
   void walk_moves() {
-    if (walk_end_pending_ &&
-        monitor_.move_complete(walk_move_, walk_end_.begin_raw, walk_end_.end_raw)) {
-      walk_end_pending_ = false;
-      end_walk(move_from_walk_, walk_end_);
-      return;
+    if constexpr (GyroMatrix) {
+      if (matrix_.end_pending &&
+          monitor_.move_complete(matrix_.move, matrix_.end.begin_raw, matrix_.end.end_raw)) {
+        matrix_.end_pending = false;
+        end_walk(matrix_.from_walk, matrix_.end);
+        return;
+      }
+      GyroSegment<Scalar> seg;
+      std::uint32_t move = 0;
+      if (!monitor_.take_move_segment(seg, move)) return;
+      if (move != matrix_.move) {  // a new move: the one before cannot end any more
+        matrix_.move = move;
+        matrix_.end_pending = false;
+        begin_walk(move);
+      }
+      matrix_.field.add_segment(seg);
     }
-    GyroSegment<Scalar> seg;
-    std::uint32_t move = 0;
-    if (!monitor_.take_move_segment(seg, move)) return;
-    if (move != walk_move_) {  // a new move: the one before cannot end any more
-      walk_move_ = move;
-      walk_end_pending_ = false;
-      begin_walk(move);
-    }
-    gyro_field_.add_segment(seg);
   }
 
   bool walk_due() const {
-    return monitor_.keeps_moves() && (walk_end_pending_ || monitor_.move_segment_ready());
+    if constexpr (GyroMatrix)
+      return monitor_.keeps_moves() && (matrix_.end_pending || monitor_.move_segment_ready());
+    else
+      return false;
   }
 
   // The rest monitor keeps the moves only while they can be used: the gyro's matrix is learned
   // and the accelerometer's model is known well enough now (in the field, at the temperature
   // now); otherwise its blocks close as without moves, and nothing is walked.
   void update_move_keeping() {
-    Scalar shape = Scalar(0);
-    const bool on = gyro_field_.enabled() && accel_shape(temperature_, shape) &&
-                    shape <= settings_.gyro_matrix.accel_shape_max;
-    if (on != monitor_.keeps_moves()) {
-      monitor_.keep_moves(on);
-      gyro_field_.abandon();
-      walk_end_pending_ = false;
+    if constexpr (GyroMatrix) {
+      Scalar shape = Scalar(0);
+      const bool on = matrix_.field.enabled() && accel_shape(temperature_, shape) &&
+                      shape <= settings_.gyro_matrix.accel_shape_max;
+      if (on != monitor_.keeps_moves()) {
+        monitor_.keep_moves(on);
+        matrix_.field.abandon();
+        matrix_.end_pending = false;
+      }
     }
   }
 
   // A move begins at the rest of the last piece judged: the gravity direction there through the
   // accelerometer's model, the filter's bias at its temperature.
   void begin_walk(std::uint32_t move) {
-    gyro_field_.abandon();
+    GyroField<Scalar>& field = matrix_.field;
+    field.abandon();
     std::uint32_t begin = 0, end = 0;
     Vector3<Scalar> b0;
-    if (!move_from_ok_ || !monitor_.move_from(move, begin, end, b0) ||
-        begin != move_from_.begin_raw || end != move_from_.end_raw)
+    if (!matrix_.from_ok || !monitor_.move_from(move, begin, end, b0) ||
+        begin != matrix_.from.begin_raw || end != matrix_.from.end_raw)
       return;
     Vector3<Scalar> up;
     Scalar shape = Scalar(0);
-    if (!gravity_direction(move_from_, up, shape)) return;
-    const Scalar off = filter_.offset(move_from_.t);
-    if (gyro_field_.begin_move(up, filter_.value(off) - b0, shape)) move_from_walk_ = move_from_;
+    if (!gravity_direction(matrix_.from, up, shape)) return;
+    const Scalar off = filter_.offset(matrix_.from.t);
+    if (field.begin_move(up, filter_.value(off) - b0, shape)) matrix_.from_walk = matrix_.from;
   }
 
   // The move walked ended at piece b, judged right after the piece it began at.
   void end_walk(const MoveEnd& a, const MoveEnd& b) {
+    GyroField<Scalar>& field = matrix_.field;
     Vector3<Scalar> up;
     Scalar shape = Scalar(0);
     if (!gravity_direction(b, up, shape)) {
-      gyro_field_.abandon();
+      field.abandon();
       return;
     }
     // The bias's variance over the move: the filter's, and a rate at either end that disagrees
@@ -1493,25 +1520,25 @@ class FieldCalibrator {
     const Scalar da = (a.z - filter_.value(filter_.offset(a.t))).squaredNorm();
     const Scalar db = (b.z - filter_.value(off)).squaredNorm();
     const GyroFieldEvent e =
-        gyro_field_.end_move(up, a.acc_var / a.acc.squaredNorm() + b.acc_var / b.acc.squaredNorm(),
-                             filter_.variance(off) + std::fmax(da, db) / Scalar(3));
+        field.end_move(up, a.acc_var / a.acc.squaredNorm() + b.acc_var / b.acc.squaredNorm(),
+                       filter_.variance(off) + std::fmax(da, db) / Scalar(3));
     if (e == GyroFieldEvent::kRefused || e == GyroFieldEvent::kChanged) {
       ++counts_.gyro_moves_refused;
-      event(FieldEventKind::kRejected, FieldReason::kInconsistent, temperature_,
-            gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
+      event(FieldEventKind::kRejected, FieldReason::kInconsistent, temperature_, field.last_chi2(),
+            FieldSensor::kGyroMatrix);
       if (e == GyroFieldEvent::kRefused) return;
     }
     if (e == GyroFieldEvent::kTaken || e == GyroFieldEvent::kUpdated) ++counts_.gyro_moves;
     if (e == GyroFieldEvent::kUpdated || e == GyroFieldEvent::kChanged) {
-      base_.gyro.params.template head<kGyroMatrixParams>() = gyro_field_.published();
-      base_.gyro.sigma.template head<kGyroMatrixParams>() = gyro_field_.published_sigmas();
+      base_.gyro.params.template head<kGyroMatrixParams>() = field.published();
+      base_.gyro.sigma.template head<kGyroMatrixParams>() = field.published_sigmas();
       base_.gyro.status = Status::kOk;
       if (e == GyroFieldEvent::kChanged) {  // the new matrix's scales are the event's value
         ++counts_.gyro_matrix_changes;
-        event(FieldEventKind::kChangeDetected, FieldReason::kNone, temperature_,
-              gyro_field_.last_chi2(), FieldSensor::kGyroMatrix);
+        event(FieldEventKind::kChangeDetected, FieldReason::kNone, temperature_, field.last_chi2(),
+              FieldSensor::kGyroMatrix);
       }
-      model_published(gyro_field_, FieldSensor::kGyroMatrix, counts_.gyro_matrix_updates);
+      model_published(field, FieldSensor::kGyroMatrix, counts_.gyro_matrix_updates);
     }
   }
 
@@ -1578,7 +1605,7 @@ class FieldCalibrator {
     m.follow_rests = false;
     // The moves between rests, for the gyro's misalignment and scale: the segment bounds in raw
     // units (path angle, and |alpha||beta| in rad^3).
-    if (settings_.gyro_matrix.enabled) {
+    if (GyroMatrix && settings_.gyro_matrix.enabled) {
       const Scalar k = settings_.gyro_per_rad_s;
       m.move_max_angle = settings_.gyro_matrix.segment_max_angle * k;
       m.move_max_error = settings_.gyro_matrix.segment_max_error * k * k * k;
@@ -1691,14 +1718,19 @@ class FieldCalibrator {
   Scalar mag_field_ut_ = Scalar(50);  // the field strength the model's norm is
   Scalar mag_reach_ = std::numeric_limits<Scalar>::infinity();  // |reading| beyond: a glitch
   Scalar mag_inner_ = std::numeric_limits<Scalar>::infinity();  // each axis within: no glitch
-  // The gyro's misalignment and scale, the piece a move into the next taken one starts from, the
-  // move under way's rest (its timestamps) and its two ends' gravity directions.
-  GyroField<Scalar> gyro_field_{};
-  MoveEnd move_from_{};       // the last piece judged, if it did not turn (move_from_ok_)
-  MoveEnd move_from_walk_{};  // the piece the move being walked began at
-  MoveEnd walk_end_{};        // ... and the one it ended at, once judged (walk_end_pending_)
-  bool move_from_ok_ = false, walk_end_pending_ = false;
-  std::uint32_t walk_move_ = 0;  // the rest monitor's number of the move being walked
+  // What only the gyro's misalignment and scale keep (nothing without GyroMatrix): its model, the
+  // piece a move into the next taken one starts from, the move under way's rest (its timestamps)
+  // and its two ends.
+  struct MatrixKept {
+    GyroField<Scalar> field{};
+    MoveEnd from{};       // the last piece judged, if it did not turn (from_ok)
+    MoveEnd from_walk{};  // the piece the move being walked began at
+    MoveEnd end{};        // ... and the one it ended at, once judged (end_pending)
+    bool from_ok = false, end_pending = false;
+    std::uint32_t move = 0;  // the rest monitor's number of the move being walked
+  };
+  struct NoMatrixKept {};
+  std::conditional_t<GyroMatrix, MatrixKept, NoMatrixKept> matrix_{};
 };
 
 }  // namespace imucal

@@ -25,8 +25,8 @@ namespace imucal {
 // kOk: saved, or nothing due; otherwise the first failure (make_record()'s kInvalidArgument or
 // kImplausible, the store's kStorageError, kStorageVerifyFailed, kStorageBusy), and the
 // publication stays due: the record load() returns is the previous one or the new one.
-template <int Events, int MagCells>
-Status save_field(FieldCalibrator<float, Events, MagCells>& field, RecordStore& store,
+template <int Events, int MagCells, bool GyroMatrix>
+Status save_field(FieldCalibrator<float, Events, MagCells, GyroMatrix>& field, RecordStore& store,
                   std::uint32_t device_id, std::uint32_t sensor_id, bool* saved = nullptr,
                   const MagCalibration<float>* mag = nullptr) {
   if (saved != nullptr) *saved = false;
@@ -51,8 +51,8 @@ Status save_field(FieldCalibrator<float, Events, MagCells>& field, RecordStore& 
 // the nominal prior when there is none usable: then the store's reason (kNoRecord,
 // kStorageError, a record status) or kNotStarted for a record without a usable gyro part. The
 // calibrator's own refusals (kInvalidArgument for settings out of range) come first.
-template <int Events, int MagCells>
-Status resume_field(FieldCalibrator<float, Events, MagCells>& field,
+template <int Events, int MagCells, bool GyroMatrix>
+Status resume_field(FieldCalibrator<float, Events, MagCells, GyroMatrix>& field,
                     const FieldSettings<float>& settings, RecordStore& store,
                     CalibrationRecord* loaded = nullptr) {
   CalibrationRecord record;
