@@ -21,7 +21,8 @@ names=("load and apply (record store + corrector)"
        "+ temperature (rest monitor, fit)"
        "+ field calibrator (its saves and resume): everything"
        "field calibrator alone (resume, frames, FIFO, magnetometer, save, corrector)"
-       "the same without a magnetometer (FieldCalibrator<float, 8, 0>)")
+       "the same without a magnetometer (FieldCalibrator<float, 8, 0>)"
+       "the same without the gyro's matrix either (FieldCalibrator<float, 8, 0, false>)")
 echo "| parts | target | level | text | data | bss |"
 echo "| --- | --- | --- | ---: | ---: | ---: |"
 for config in "${configs[@]}"; do
@@ -35,7 +36,7 @@ for config in "${configs[@]}"; do
       -DIMUCAL_BUILD_TESTS=OFF -DIMUCAL_BUILD_EXAMPLES=OFF -DIMUCAL_BUILD_TOOLS=OFF -DIMUCAL_BUILD_BENCH=ON \
       -DIMUCAL_BUILD_INSN_BENCH=OFF -DIMUCAL_INSTALL=OFF -DIMUCAL_WERROR=ON \
       -DIMUCAL_FOOTPRINT_OPT="$level${flags:+;$flags}" -DIMUCAL_FOOTPRINT_LTO=OFF >/dev/null
-    for parts in 1 2 3 4 5 6 7 8; do
+    for parts in 1 2 3 4 5 6 7 8 9; do
       program=imucal_footprint_parts$parts
       [ "$parts" = 6 ] && program=imucal_footprint
       log="$dir/$program.log"

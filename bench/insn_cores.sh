@@ -8,7 +8,7 @@
 # the magnetometer at 50 Hz): FieldCalibrator::add_raw() per frame at rest and moving with no
 # solve under way, the mean of the calls that run a slice of a model's solve, and its largest
 # call (a rest judged or a slice); the same with the temperature once a second rather than with every
-# frame; add_fifo() per frame in batches of 25; from a stored calibration (the moves kept and walked): at rest and moving; add_mag() per call, sizeof(FieldCalibrator<float>) with and without the magnetometer's model and the stack its calls took (painted;
+# frame; add_fifo() per frame in batches of 25; from a stored calibration (the moves kept and walked): at rest and moving; the same built without the gyro's matrix and the magnetometer; add_mag() per call, sizeof(FieldCalibrator<float>) with and without the magnetometer's model (and without the gyro's matrix as well) and the stack its calls took (painted;
 # not on the M0+).
 # Each core's instruction-count programs are built in build/insn/CORE (-O2, assertions off, as
 # firmware would) with that core's toolchain file; the cores without an FPU use soft float.
@@ -61,17 +61,19 @@ for core in "${cores[@]}"; do
     f_largest=$(printf '%s\n' "$table" | awk -F'|' 'index($2, "field: add_raw()") { gsub(/ /, "", $5); if ($5 + 0 > m) m = $5 + 0 } END { print m }')
     f_1hz="$(row "temperature at 1 Hz: add_raw(), still" 4) / $(row "temperature at 1 Hz: add_raw(), moving" 4)"
     f_mag_rest=$(row "field: add_mag(), in a rest" 4) f_mag_none=$(row "field: add_mag(), no rest" 4)
-    f_size=$(printf '%s\n' "$table" | sed -n 's/.*field: start.*sizeof \([0-9]*\), without a magnetometer \([0-9]*\).*/\1 (\2)/p')
+    f_size=$(printf '%s\n' "$table" | sed -n 's/.*field: start.*sizeof \([0-9]*\), without a magnetometer \([0-9]*\), and without the gyro.s matrix \([0-9]*\).*/\1 (\2, \3)/p')
     f_stack=$(printf '%s\n' "$table" | awk -F'|' 'index($2, "field add_raw(), add_mag()") { sub(/^ +/, "", $3); sub(/ +$/, "", $3); print $3 }')
     case $f_stack in [0-9]*) ;; *) f_stack="(not measured)" ;; esac
     # From a stored calibration (the moves kept and walked for the gyro's matrix, in the frames
     # in motion): at rest, moving.
     f_stored="$(row "stored calibration: add_raw(), still" 4) / $(row "stored calibration: add_raw(), moving" 4)"
+    # Built without the gyro's matrix and the magnetometer, from the same record.
+    f_lean="$(row "without the gyro's matrix: add_raw(), still" 4) / $(row "without the gyro's matrix: add_raw(), moving" 4)"
     # In FIFO batches of 25 (the temperature once a batch): a frame's share of a batch's call,
     # every frame of it still / moving.
     per_frame() { printf '%s\n' "$table" | awk -F'|' -v r="$1" 'index($2, r) { printf "%d", ($4 + 12) / 25 }'; }
     f_fifo="$(per_frame "FIFO batches of 25: add_fifo(), still") / $(per_frame "FIFO batches of 25: add_fifo(), moving")"
-    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_slice / $f_largest | $f_1hz | $f_fifo | $f_stored | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
+    field_rows+="| ${label[$core]} | $f_rest / $f_moving / $f_slice / $f_largest | $f_1hz | $f_fifo | $f_stored | $f_lean | $f_mag_rest / $f_mag_none | $f_size | $f_stack |"$'\n'
   fi
   [ $protocol = 1 ] || continue
   rest=$(row "add(): still" 4) moving=$(row "add(): moving" 4) init=$(row "add(): initial" 4)
@@ -88,7 +90,7 @@ for core in "${cores[@]}"; do
 done
 if [ $field = 1 ]; then
   [ $protocol = 1 ] && echo
-  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / a call with a solve slice (mean) / largest call | the same, temperature at 1 Hz instead of every frame: at rest / moving | add_fifo() per frame (batches of 25, the temperature once a batch): at rest / moving | from a stored calibration (moves kept and walked): at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) (without a magnetometer: MagCells 0) | stack of add_raw() (painted) |"
-  echo "| --- | --- | --- | --- | --- | --- | ---: | ---: |"
+  echo "| core | FieldCalibrator::add_raw() per frame: at rest / moving / a call with a solve slice (mean) / largest call | the same, temperature at 1 Hz instead of every frame: at rest / moving | add_fifo() per frame (batches of 25, the temperature once a batch): at rest / moving | from a stored calibration (moves kept and walked): at rest / moving | the same built without the gyro's matrix and the magnetometer (FieldCalibrator<float, 8, 0, false>): at rest / moving | add_mag() per call (50 Hz): in a rest / none open | sizeof(FieldCalibrator<float>) (without a magnetometer: MagCells 0; and without the gyro's matrix) | stack of add_raw() (painted) |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | ---: | ---: |"
   printf '%s' "$field_rows"
 fi

@@ -15,7 +15,8 @@
 //   7  the field calibrator alone, with the magnetometer's model: resumed from the store, fed
 //      frames, FIFO batches and magnetometer readings, saved, its calibration applied (what a
 //      product that is calibrated elsewhere runs forever);
-//   8  7 built without the magnetometer's model (FieldCalibrator<float, 8, 0>).
+//   8  7 built without the magnetometer's model (FieldCalibrator<float, 8, 0>);
+//   9  8 built without the gyro's matrix as well (FieldCalibrator<float, 8, 0, false>).
 #include <cstdint>
 #include <cstdio>
 
@@ -50,7 +51,9 @@ imucal::MagCalibrator<float> mag;  // the magnetometer collector
 imucal::TemperatureFit<float, 1> temperature_fit;  // bias against temperature (linear)
 imucal::RestMonitor<float> rest_monitor;           // rests in the field
 #endif
-#if IMUCAL_FOOTPRINT_PARTS == 8
+#if IMUCAL_FOOTPRINT_PARTS == 9
+imucal::FieldCalibrator<float, 8, 0, false> field;  // nor the gyro's matrix
+#elif IMUCAL_FOOTPRINT_PARTS == 8
 imucal::FieldCalibrator<float, 8, 0> field;  // without the magnetometer's model
 #elif IMUCAL_FOOTPRINT_PARTS >= 6
 imucal::FieldCalibrator<float> field;
@@ -67,7 +70,7 @@ unsigned run_field(Field& f, imucal::RecordStore& store, imucal::Corrector<float
   s.accel_noise = s.gyro_noise = 3.0f;
   s.gyro_per_rad_s = 939.0f;
   s.accel.accel_per_m_s2 = 417.7f;
-  if (IMUCAL_FOOTPRINT_PARTS != 8) s.mag.counts_per_ut = 6.67f;
+  if (IMUCAL_FOOTPRINT_PARTS < 8) s.mag.counts_per_ut = 6.67f;
   imucal::resume_field(f, s, store);
   std::uint32_t t_us = 0;
   for (int k = 0; k < 3000; ++k) {

@@ -22,7 +22,12 @@
 // keeps and walks the moves between rests for the gyro's misalignment and scale ("field, from a
 // stored calibration: ..."; without the magnetometer, the temperature with every frame; a call
 // walks a segment in the call that closed it, so the walks are in its frames in motion).
-// The same frames go to a fourth calibrator in FIFO batches of 25 (add_fifo(); without the
+// The same frames go to a calibrator built without the gyro's matrix and the magnetometer
+// (FieldCalibrator<float, 8, 0, false>: what a part with little RAM builds; in a translation unit
+// of its own, bench_field_lean.cpp), started from the same record without the magnetometer's
+// settings, the temperature with every frame ("field, without the gyro's matrix: ..."): it keeps
+// no moves and walks none.
+// The same frames go to a fifth calibrator in FIFO batches of 25 (add_fifo(); without the
 // magnetometer, the temperature once a batch), each call its own region ("field, FIFO batches of
 // 25: ..."), named still or moving (every frame of the batch truly still, or not; nothing judged
 // and no solve under way) or a rest judged or a solve slice: a frame's share is the call's / 25.
@@ -34,12 +39,13 @@
 // add_raw() and add_mag() (one "STACK" line: bytes below main's stack pointer, stack_paint.hpp;
 // add_raw()'s, add_mag() is a leaf), painted before and measured after each call, outside the
 // counted regions, and sizeof(FieldCalibrator<float>), with and without the magnetometer's model
-// (MagCells 0).
+// (MagCells 0), and without the gyro's matrix as well.
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
 
+#include "bench_field_lean.hpp"
 #include "imucal/field/field_calibrator.hpp"
 #include "imucal/sim/field_settings.hpp"
 #include "imucal/sim/life_sim.hpp"
@@ -142,7 +148,9 @@ const char* judged_name(const FieldCounts& a, const FieldCounts& b) {
 #define IMUCAL_OTHER_BEGIN() ((void)0)
 #define IMUCAL_OTHER_END() ((void)0)
 #define IMUCAL_OTHER_ANNOUNCE(name) ((void)(name))
+constexpr bool kOtherCounted = false;
 #else
+constexpr bool kOtherCounted = true;
 #define IMUCAL_OTHER_BEGIN() imucal_bench_begin()
 #define IMUCAL_OTHER_END() imucal_bench_end()
 #define IMUCAL_OTHER_ANNOUNCE(name) bench_announce(name)
@@ -155,6 +163,9 @@ int main() {
   calibrator_1hz.start(settings_for(life.sheet()));
   const sim::StoredCalibration stored = sim::protocol_record(life, 0.01, 0.02);
   calibrator_stored.start(settings_for(life.sheet()), &stored.cal, &stored.model);
+  FieldSettings<float> lean_settings = settings_for(life.sheet());
+  lean_settings.mag = MagFieldSettings<float>{};  // no magnetometer in that build
+  const Status lean_started = bench_lean::start(lean_settings, &stored.cal, &stored.model);
   calibrator_fifo.start(settings_for(life.sheet()));
   std::uint32_t fifo_n = 0;
   bool fifo_still = true;
@@ -250,6 +261,19 @@ int main() {
                          : "field, from a stored calibration: add_raw(), moving, per frame");
     while (calibrator_stored.take_event(e)) {
     }
+    // Built without the gyro's matrix and the magnetometer, from the same record.
+    const std::uint32_t before_lean = decisions(bench_lean::counts());
+    const bool solving_lean = bench_lean::solving();
+    bench::stack_paint();
+    bench_lean::add_raw(g_frame, g_temperature, kOtherCounted);
+    bench::stack_measure();
+    IMUCAL_OTHER_ANNOUNCE(
+        decisions(bench_lean::counts()) != before_lean
+            ? "field, without the gyro's matrix: add_raw(), a rest handed out or judged"
+        : solving_lean ? "field, without the gyro's matrix: add_raw(), a solve slice, per call"
+        : t.still      ? "field, without the gyro's matrix: add_raw(), still, per frame"
+                       : "field, without the gyro's matrix: add_raw(), moving, per frame");
+    bench_lean::drop_events();
     // The FIFO: the frame joins the batch; a full batch goes in at once (the sensor's timestamps).
     if (fifo_n == 0) {
       fifo_still = true;
@@ -289,20 +313,28 @@ int main() {
   std::printf(
       "RESULT field: start %s, %u frames (%u refused), %u add_mag() calls, %u events: %u rests, "
       "%u taken, %u turning, %u held, %u unconfirmed, %u changes, %u updates; published %d; "
-      "sizeof %u, without a magnetometer %u\n",
+      "sizeof %u, without a magnetometer %u, and without the gyro's matrix %u\n",
       to_string(started), static_cast<unsigned>(frames), static_cast<unsigned>(refused),
       static_cast<unsigned>(mags), static_cast<unsigned>(events), static_cast<unsigned>(c.rests),
       static_cast<unsigned>(c.taken), static_cast<unsigned>(c.turning),
       static_cast<unsigned>(c.held), static_cast<unsigned>(c.unconfirmed),
       static_cast<unsigned>(c.changes), static_cast<unsigned>(c.updates), published ? 1 : 0,
       static_cast<unsigned>(sizeof(calibrator)),
-      static_cast<unsigned>(sizeof(FieldCalibrator<float, 8, 0>)));
+      static_cast<unsigned>(sizeof(FieldCalibrator<float, 8, 0>)),
+      static_cast<unsigned>(bench_lean::size()));
   std::printf(
       "RESULT field, temperature at 1 Hz (no magnetometer): %u rests, %u taken, %u "
       "updates\n",
       static_cast<unsigned>(calibrator_1hz.counts().rests),
       static_cast<unsigned>(calibrator_1hz.counts().taken),
       static_cast<unsigned>(calibrator_1hz.counts().updates));
+  std::printf(
+      "RESULT field, without the gyro's matrix (no magnetometer), from a stored calibration: %u "
+      "rests, %u taken, %u updates, %u gyro moves\n",
+      static_cast<unsigned>(bench_lean::counts().rests),
+      static_cast<unsigned>(bench_lean::counts().taken),
+      static_cast<unsigned>(bench_lean::counts().updates),
+      static_cast<unsigned>(bench_lean::counts().gyro_moves));
   const FieldCounts& cs = calibrator_stored.counts();
   std::printf(
       "RESULT field, from a stored calibration (no magnetometer): %u rests, %u taken, %u gyro "
@@ -317,5 +349,8 @@ int main() {
       static_cast<unsigned>(calibrator_fifo.counts().rests),
       static_cast<unsigned>(calibrator_fifo.counts().taken),
       static_cast<unsigned>(calibrator_fifo.counts().updates));
-  return started == Status::kOk && refused == 0 && fifo_refused == 0 && published ? 0 : 1;
+  return started == Status::kOk && lean_started == Status::kOk && refused == 0 &&
+                 fifo_refused == 0 && published
+             ? 0
+             : 1;
 }
