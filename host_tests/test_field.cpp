@@ -898,6 +898,34 @@ TEST(FieldLife, FixedWithoutMagnetometerAKnockAcrossGravityIsFoundAtOnce) {
   EXPECT_LT(e[e.size() * 95 / 100], 10.0);
 }
 
+// The events the reference calibrator has waiting, the other has the same (kind, sensor, time,
+// value), and no more; how many.
+template <class Reference, class Other>
+std::size_t expect_same_events(Reference& reference, Other& other) {
+  std::size_t n = 0;
+  FieldEvent<float> a, b;
+  while (reference.take_event(a)) {
+    if (!other.take_event(b)) {
+      ADD_FAILURE() << "an event missing";
+      return n;
+    }
+    EXPECT_EQ(a.kind, b.kind);
+    EXPECT_EQ(a.sensor, b.sensor);
+    EXPECT_EQ(a.time_s, b.time_s);
+    EXPECT_EQ(a.value, b.value);
+    ++n;
+  }
+  EXPECT_FALSE(other.take_event(b));
+  return n;
+}
+
+void expect_same_counts(const FieldCounts& reference, const FieldCounts& other) {
+  EXPECT_EQ(other.rests, reference.rests);
+  EXPECT_EQ(other.taken, reference.taken);
+  EXPECT_EQ(other.updates, reference.updates);
+  EXPECT_EQ(other.accel_updates, reference.accel_updates);
+}
+
 // Built without a magnetometer (MagCells 0, its model compiled out): on a life without one it
 // decides exactly what the default build decides, frame by frame, in 2,800 B less; settings
 // that enable a magnetometer are refused.
@@ -921,23 +949,10 @@ TEST(FieldCalibrator, BuiltWithoutAMagnetometerDecidesTheSameInLessMemory) {
     fr = frame_of(s);
     const float temperature = s.temperature_new ? s.imu.temperature : kNaN;
     ASSERT_EQ(small.add_raw(fr, temperature), full.add_raw(fr, temperature));
-    FieldEvent<float> a, b;
-    while (full.take_event(a)) {
-      ASSERT_TRUE(small.take_event(b));
-      EXPECT_EQ(a.kind, b.kind);
-      EXPECT_EQ(a.sensor, b.sensor);
-      EXPECT_EQ(a.time_s, b.time_s);
-      EXPECT_EQ(a.value, b.value);
-      ++events;
-    }
-    EXPECT_FALSE(small.take_event(b));
+    events += expect_same_events(full, small);
   }
   const FieldCounts& cf = full.counts();
-  const FieldCounts& cs = small.counts();
-  EXPECT_EQ(cs.rests, cf.rests);
-  EXPECT_EQ(cs.taken, cf.taken);
-  EXPECT_EQ(cs.updates, cf.updates);
-  EXPECT_EQ(cs.accel_updates, cf.accel_updates);
+  expect_same_counts(cf, small.counts());
   // Not a trivial agreement: both published the gyro's bias and the accelerometer's model.
   EXPECT_GT(events, 0u);
   EXPECT_GT(cf.updates, 0u);
@@ -997,26 +1012,14 @@ TEST(FieldCalibrator, BuiltWithoutTheGyroMatrixDecidesTheSameInLessMemory) {
     const float temperature = s.temperature_new ? s.imu.temperature : kNaN;
     ASSERT_EQ(lean.add_raw(fr, temperature), full.add_raw(fr, temperature));
     learning.add_raw(fr, temperature);
-    FieldEvent<float> a, b;
-    while (full.take_event(a)) {
-      ASSERT_TRUE(lean.take_event(b));
-      EXPECT_EQ(a.kind, b.kind);
-      EXPECT_EQ(a.sensor, b.sensor);
-      EXPECT_EQ(a.time_s, b.time_s);
-      EXPECT_EQ(a.value, b.value);
-      ++events;
-    }
-    EXPECT_FALSE(lean.take_event(b));
-    while (learning.take_event(a)) {
+    events += expect_same_events(full, lean);
+    FieldEvent<float> e;
+    while (learning.take_event(e)) {
     }
   }
   const FieldCounts& cf = full.counts();
-  const FieldCounts& cl = lean.counts();
-  EXPECT_EQ(cl.rests, cf.rests);
-  EXPECT_EQ(cl.taken, cf.taken);
-  EXPECT_EQ(cl.updates, cf.updates);
-  EXPECT_EQ(cl.accel_updates, cf.accel_updates);
-  EXPECT_EQ(cl.gyro_moves, 0u);
+  expect_same_counts(cf, lean.counts());
+  EXPECT_EQ(lean.counts().gyro_moves, 0u);
   // Not a trivial agreement: the bias was published, and the default build walked the moves.
   EXPECT_GT(events, 0u);
   EXPECT_GT(cf.updates, 0u);
