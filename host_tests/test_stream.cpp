@@ -255,6 +255,97 @@ TEST(StreamChecks, TemperatureLimitsAsWideAsTheyComeStillRefuseInfinity) {
   EXPECT_NEAR(static_cast<double>(mean), 25.0 / 3.0, 1e-3);
   EXPECT_EQ(checks.counts().temperature_bad, 3u);
 }
+// A sensor frozen longer than the microsecond clock's 71.6 minutes stays frozen: its spell's
+// length saturates rather than wrapping to a few microseconds and letting its repeats through.
+TEST(StreamChecks, AFreezeLongerThanTheClockStaysRefused) {
+  struct NoSink {
+    int freezes = 0;
+    void stream_cut() {}
+    void sensor_froze() { ++freezes; }
+  } sink;
+  StreamSettings<float> set;  // frozen after 0.5 s
+  ASSERT_TRUE(set.valid());
+  StreamChecks<float> checks;
+  checks.reset(set);
+  checks.set_gap_limit(1000000u);
+  RawFrame f;
+  f.acc[2] = 16384;
+  std::uint32_t t = 0;
+  CheckedSample<float> c;
+  const std::uint32_t frames = 80u * 60u * 50u;  // 80 minutes at 50 Hz
+  std::uint32_t taken = 0, refused = 0;
+  for (std::uint32_t k = 0; k < frames; ++k) {
+    f.t_us = t += 20000u;
+    const Status st = checks.check(f, std::numeric_limits<float>::quiet_NaN(), sink, c);
+    if (sample_taken(st)) {
+      checks.accept(f);
+      ++taken;
+    } else {
+      ASSERT_EQ(st, Status::kSensorFrozen) << k;
+      ++refused;
+    }
+  }
+  EXPECT_EQ(taken, 25u);  // the first, and 0.5 s of repeats before the freeze is declared
+  EXPECT_EQ(refused, frames - 25u);
+  EXPECT_EQ(sink.freezes, 1);
+  EXPECT_EQ(checks.counts().frozen, frames - 25u);
+}
+
+// Without a gyro its readings are not checked against its full scale: limits that leave out the
+// zeros standing for its readings (0 to 65535, a sensor's unsigned counts) refuse nothing.
+TEST(StreamChecks, WithoutAGyroItsFullScaleIsNotChecked) {
+  struct NoSink {
+    void stream_cut() {}
+    void sensor_froze() {}
+  } sink;
+  StreamSettings<float> set;
+  set.has_gyro = false;
+  set.accel_min = set.gyro_min = 0.0f;
+  set.accel_max = set.gyro_max = 65535.0f;
+  ASSERT_TRUE(set.valid());
+  StreamChecks<float> checks;
+  checks.reset(set);
+  checks.set_gap_limit(1000000u);
+  CheckedSample<float> c;
+  std::uint32_t t = 0;
+  for (int k = 0; k < 10; ++k) {
+    RawFrame f;
+    f.t_us = t += 10000u;
+    f.acc[0] = static_cast<std::int16_t>(100 + k);
+    f.acc[1] = 200;
+    f.acc[2] = 16384;
+    EXPECT_EQ(checks.check(f, std::numeric_limits<float>::quiet_NaN(), sink, c), Status::kOk) << k;
+    checks.accept(f);
+    ImuSample<float> s;
+    s.t_us = t += 10000u;
+    s.acc = V3(100.0f + static_cast<float>(k), 200.0f, 16384.0f);
+    EXPECT_EQ(checks.check(s, sink, c), Status::kOk) << k;
+    checks.accept(s);
+  }
+  EXPECT_EQ(checks.counts().gyro_saturated, 0u);
+}
+
+// Settings are converted before they are checked: absurd ones (NaN, negative, past the clock)
+// convert without undefined behaviour (the sanitizers' build holds it) and are refused.
+TEST(StreamChecks, AbsurdDurationsConvertAndAreRefused) {
+  EXPECT_EQ(detail::seconds_to_us(0.25f), 250000u);
+  EXPECT_EQ(detail::seconds_to_us(600.0), 600000000u);
+  EXPECT_EQ(detail::seconds_to_us(std::numeric_limits<float>::quiet_NaN()), 0u);
+  EXPECT_EQ(detail::seconds_to_us(-1.0f), 0u);
+  EXPECT_EQ(detail::seconds_to_us(1e10f), 0xFFFFFFFFu);
+  EXPECT_EQ(detail::seconds_to_us(std::numeric_limits<double>::infinity()), 0xFFFFFFFFu);
+  const float absurd[] = {std::numeric_limits<float>::quiet_NaN(), -1.0f, 1e10f};
+  for (const float x : absurd) {
+    RestMonitorSettings<float> set;
+    set.frozen_seconds = x;
+    RestMonitor<float> monitor;
+    EXPECT_EQ(monitor.reset(set), Status::kInvalidArgument) << x;
+    set = RestMonitorSettings<float>{};
+    set.block_seconds = x;
+    EXPECT_EQ(monitor.reset(set), Status::kInvalidArgument) << x;
+  }
+}
+
 TEST(StreamChecks, RateWindowsOfOneSecond) {
   RateWatch r;
   r.restart();

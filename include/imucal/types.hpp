@@ -148,6 +148,16 @@ template <typename Scalar>
 Scalar from_temperature_q_sum(std::int64_t q) {
   return to_scalar<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
 }
+// Seconds as whole microseconds in 32 bits, truncated as a cast truncates: NaN and what is not
+// positive give 0, what is 2^32 us (71.6 minutes) or more the largest. Settings are converted
+// with it before they are checked, so an absurd one converts without undefined behaviour.
+template <typename Scalar>
+std::uint32_t seconds_to_us(Scalar seconds) {
+  const Scalar us = seconds * Scalar(1e6);
+  if (!(us > Scalar(0))) return 0u;
+  if (!(us < Scalar(4294967296.0))) return 0xFFFFFFFFu;
+  return static_cast<std::uint32_t>(us);
+}
 }  // namespace detail
 
 // Every coefficient finite (no NaN, no infinity).

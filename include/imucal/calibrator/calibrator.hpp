@@ -353,7 +353,7 @@ class Calibrator {
     if (phase_ != Phase::kInitialRest && period_ > Scalar(0) &&
         settings_.gap_factor * period_ < limit)
       limit = settings_.gap_factor * period_;
-    checks_.set_gap_limit(static_cast<std::uint32_t>(limit * Scalar(1e6)));
+    checks_.set_gap_limit(detail::seconds_to_us(limit));
   }
 
   // ---- The front end's sink (checks.hpp) -----------------------------------------------------

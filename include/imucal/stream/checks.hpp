@@ -270,7 +270,7 @@ class StreamChecks {
   // refuses every sample while they are not valid: check() assumes they are.
   void reset(const StreamSettings<Scalar>& s) {
     has_gyro_ = s.has_gyro;
-    frozen_limit_us_ = static_cast<std::uint32_t>(s.frozen_seconds * Scalar(1e6));
+    frozen_limit_us_ = detail::seconds_to_us(s.frozen_seconds);
     // Limits within +-4096 deg C: a reading that saturated the conversion (infinity) is outside
     // them, and two readings inside differ by at most 2^25 (a 48-bit sum, SubBlockTemperature).
     temperature_min_q_ = clamp_temperature_limit(detail::to_temperature_q(s.temperature_min_c));
@@ -280,9 +280,16 @@ class StreamChecks {
     rate_tolerance_ = s.rate_tolerance;
     clock_reset_samples_ = s.clock_reset_samples;
     acc_scale_.set(s.accel_min, s.accel_max);
-    gyro_scale_.set(s.gyro_min, s.gyro_max);
     set_counts_range(int_floor(s.accel_min), int_ceil(s.accel_max), acc_lo1_, acc_span_);
-    set_counts_range(int_floor(s.gyro_min), int_ceil(s.gyro_max), gyro_lo1_, gyro_span_);
+    if (s.has_gyro) {
+      gyro_scale_.set(s.gyro_min, s.gyro_max);
+      set_counts_range(int_floor(s.gyro_min), int_ceil(s.gyro_max), gyro_lo1_, gyro_span_);
+    } else {  // no gyro: the zeros that stand for its readings are never at a limit
+      gyro_scale_ = FullScale<Scalar>{};
+      gyro_scale_.set(-std::numeric_limits<Scalar>::infinity(),
+                      std::numeric_limits<Scalar>::infinity());
+      set_counts_range(-65536, 65536, gyro_lo1_, gyro_span_);
+    }
     have_prev_ = false;
     restart_ = true;
     frozen_ = false;
@@ -404,7 +411,10 @@ class StreamChecks {
     clock_.in_order();
     // Frozen: either sensor's reading the same as its previous one for frozen_seconds.
     if (have_prev_ && !restart_ && repeats(s)) {
-      frozen_us_ += static_cast<std::uint32_t>(step);
+      // Saturating: a spell longer than the clock's 71.6 minutes stays frozen.
+      const std::uint32_t room = 0xFFFFFFFFu - frozen_us_;
+      frozen_us_ +=
+          static_cast<std::uint32_t>(step) < room ? static_cast<std::uint32_t>(step) : room;
       t_prev_ = s.t_us;
       if (frozen_us_ >= frozen_limit_us_) {
         if (!frozen_) {

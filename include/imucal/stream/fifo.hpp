@@ -5,6 +5,7 @@
 // only. Never allocates, throws or blocks. Header-only.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -58,7 +59,7 @@ inline std::int16_t read16(const std::uint8_t* p, bool big_endian) {
 // Frame k of a FIFO buffer, with its timestamp.
 inline RawFrame fifo_frame(const std::uint8_t* data, std::uint32_t k, const FifoLayout& l,
                            const FifoTiming& timing) {
-  const std::uint8_t* f = data + static_cast<std::uint32_t>(l.stride) * k;
+  const std::uint8_t* f = data + static_cast<std::size_t>(l.stride) * k;
   RawFrame r;
   for (int i = 0; i < 3; ++i) {
     const unsigned j = 2u * l.axis_order[i];

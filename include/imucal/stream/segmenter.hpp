@@ -74,9 +74,9 @@ class Segmenter {
 
   // Forgets everything and takes the settings (check them with valid() first).
   void reset(const SegmenterSettings<Scalar>& s) {
-    sub_us_ = static_cast<std::uint32_t>(s.sub_block_seconds * Scalar(1e6));
-    block_us_ = static_cast<std::uint32_t>(s.block_seconds * Scalar(1e6));
-    trim_us_ = static_cast<std::uint32_t>(s.trim_seconds * Scalar(1e6));
+    sub_us_ = detail::seconds_to_us(s.sub_block_seconds);
+    block_us_ = detail::seconds_to_us(s.block_seconds);
+    trim_us_ = detail::seconds_to_us(s.trim_seconds);
     min_rest_seconds_ = s.min_rest_seconds;
     max_rest_seconds_ = s.max_rest_seconds;
     accel_shift_max2_ = s.accel_shift_max * s.accel_shift_max;

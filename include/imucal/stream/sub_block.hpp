@@ -202,6 +202,16 @@ inline std::int32_t clamp16(std::int32_t x) {
 #endif
 }
 
+// x limited to +-2^16 counts (NaN: -2^16), twice a 16-bit reading's range, before it is rounded
+// to an integer: a bias, a reference or a mean beyond that comes only from readings no frame
+// carries (a stream of readings in other units, or hostile ones); the integer sums stay exact
+// and the conversion defined.
+template <typename Scalar>
+Scalar clamp_counts(Scalar x) {
+  constexpr Scalar kMax = Scalar(65536);
+  return !(x > -kMax) ? -kMax : (x < kMax ? x : kMax);
+}
+
 inline std::int32_t round_to_int(double x) {
   return static_cast<std::int32_t>(x < 0 ? x - 0.5 : x + 0.5);
 }
@@ -360,12 +370,14 @@ class RawSums {
   // differs from the previous sub-block's (most sub-blocks change none but the reference); with
   // it every limit is converted, which costs less than the compares.
   void start(const SubBlockLimits<Scalar>& l, const SubBlockLimits<Scalar>& old) {
-    const bool all = !converted_ || hardware_float<Scalar>();
+    const bool first = !converted_;
+    const bool all = first || hardware_float<Scalar>();
     converted_ = true;
-    if (all || bits_differ(l.gyro_bias, old.gyro_bias)) {
+    // The bias changes seldom, and its conversion is the dearest: converted only when it does.
+    if (first || bits_differ(l.gyro_bias, old.gyro_bias)) {
       db_zero_ = true;
       for (int i = 0; i < 3; ++i) {
-        const std::int32_t b = round_to_int(l.gyro_bias(i));
+        const std::int32_t b = round_to_int(clamp_counts(l.gyro_bias(i)));
         u_prev_[i] += b - bias_[i];  // the trapezoid's other end, moved to the new bias
         bias_[i] = b;
         db_(i) = l.gyro_bias(i) - static_cast<Scalar>(b);
@@ -373,8 +385,11 @@ class RawSums {
       }
       db2_ = db_.squaredNorm();
     }
-    for (int i = 0; i < 3; ++i)
-      ref_[i] = l.acc_ref_is_mean ? round_q8(mean_q8_[i]) : round_to_int(l.acc_ref(i));
+    if (l.acc_ref_is_mean) {
+      for (int i = 0; i < 3; ++i) ref_[i] = round_q8(mean_q8_[i]);
+    } else {
+      for (int i = 0; i < 3; ++i) ref_[i] = round_to_int(clamp_counts(l.acc_ref(i)));
+    }
     // A clip, a glitch limit or a bound beyond what the sums can hold is no clip, limit or bound.
     if (all || bits_differ(l.dev_clip, old.dev_clip))
       dev_clip_q8_ = to_u32_limit(Scalar(256) * l.dev_clip, kDevClipCap);
@@ -413,7 +428,7 @@ class RawSums {
   void forget_rate() { u_prev_[0] = u_prev_[1] = u_prev_[2] = 0; }
   void set_averages(const Vector3<Scalar>& mean, Scalar accel, Scalar energy,
                     const SubBlockLimits<Scalar>& l) {
-    for (int i = 0; i < 3; ++i) mean_q8_[i] = round_to_int(Scalar(256) * mean(i));
+    for (int i = 0; i < 3; ++i) mean_q8_[i] = round_to_int(Scalar(256) * clamp_counts(mean(i)));
     va_q8_ = static_cast<std::int32_t>(
         to_u32_limit(Scalar(256) * accel / (Scalar(1) - weight(l)), 0x7FFFFFFFu));
     ee_q4_ = static_cast<std::int32_t>(to_u32_limit(Scalar(16) * energy, 0x7FFFFFFFu));
