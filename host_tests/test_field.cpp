@@ -115,6 +115,20 @@ TEST(FieldCalibrator, SettingsOutOfRangeRefuseEverySample) {
   s = plain_settings();
   s.gyro_matrix.segment_max_angle = kNaN;
   EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  // A scale whose prior variances overflow the float range, or whose inverse does (a denormal).
+  s = plain_settings();
+  s.gyro_per_rad_s = 1e30f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  s = plain_settings();
+  s.gyro_per_rad_s = 1e-39f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  s = plain_settings();
+  s.bias_sigma = 1e30f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
+  s = plain_settings();
+  s.accel.accel_per_m_s2 = 4096.0f / 9.80665f;  // the accelerometer's model on
+  s.accel.resolve_seconds = 1e12f;
+  EXPECT_EQ(f.start(s), Status::kInvalidArgument);
   EXPECT_EQ(f.start(plain_settings()), Status::kOk);
   EXPECT_EQ(f.add(x), Status::kOk);
 }
@@ -1312,6 +1326,21 @@ TEST(FieldStore, SavesWithinTheWearBudgetAndResumesWhereItStopped) {
   ASSERT_TRUE(resumed.gyro_bias(t1, b));
   const Vector3<float> expected = r.last_model.gyro.at(t1, t0);
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(b(i), expected(i), 1e-3f) << i;
+  // The stored range is the temperatures seen plus the margin: resumed, the calibrator would
+  // store the same range again, reboot after reboot, not one margin wider each time.
+  ASSERT_LT(loaded.temperature.min_c, loaded.temperature.max_c);
+  Calibration<float> again;
+  TemperatureModel<float> again_model;
+  ASSERT_TRUE(resumed.calibration(again, again_model));
+  EXPECT_NEAR(again_model.min_c, loaded.temperature.min_c, 1e-4f);
+  EXPECT_NEAR(again_model.max_c, loaded.temperature.max_c, 1e-4f);
+  static FieldCalibrator<float> second;
+  ASSERT_EQ(second.start(r.field.settings(), &again, &again_model), Status::kOk);
+  Calibration<float> third;
+  TemperatureModel<float> third_model;
+  ASSERT_TRUE(second.calibration(third, third_model));
+  EXPECT_NEAR(third_model.min_c, loaded.temperature.min_c, 1e-4f);
+  EXPECT_NEAR(third_model.max_c, loaded.temperature.max_c, 1e-4f);
   // The magnetometer's published calibration went in, and comes back as the resumed one's.
   ASSERT_TRUE(r.saved_mag);
   ASSERT_TRUE(loaded.parts & kRecordMag);
@@ -1713,6 +1742,77 @@ TEST(FieldFaults, AMagnetometerReadingBeyondAnyFieldIsRefused) {
   EXPECT_EQ(edge.add_mag(between * (0.999f * reach)), Status::kOk);
   EXPECT_EQ(edge.add_mag(between * (1.001f * reach)), Status::kGlitch);
   EXPECT_EQ(edge.counts().mag_glitches, 3u);
+}
+
+// A magnetometer stuck on one reading (a hung bus) is refused once a rest has shown it stuck, and
+// verifies nothing: frame by frame the calibrator decides what it decides without a
+// magnetometer, also through a rest turning about the vertical after the first publication
+// (held, and not confirmed as a change by pieces over which the field seemed to hold still).
+TEST(FieldFaults, AStuckMagnetometerIsRefusedAndVerifiesNothing) {
+  FieldSettings<float> settings = fault_settings();
+  settings.mag.counts_per_ut = 10.0f;
+  static FieldCalibrator<float> plain, stuck;
+  ASSERT_EQ(plain.start(settings), Status::kOk);
+  ASSERT_EQ(stuck.start(settings), Status::kOk);
+  Frames g;
+  std::vector<Status> statuses;
+  std::size_t events = 0;
+  const auto both = [&](const RawFrame& fr, bool rest) {
+    EXPECT_EQ(stuck.add_raw(fr), plain.add_raw(fr));
+    if (rest && fr.t_us % 100000u == 0u)  // 10 Hz
+      statuses.push_back(stuck.add_mag(Vector3<float>(200.0f, 0.0f, -450.0f)));
+    events += expect_same_events(plain, stuck);
+  };
+  for (int c = 0; c < 6; ++c) {
+    for (int i = 0; i < 200; ++i) both(g.move(), false);
+    for (int i = 0; i < 1200; ++i) both(g.rest(), true);
+  }
+  ASSERT_GT(plain.counts().updates, 0u);
+  for (int i = 0; i < 200; ++i) both(g.move(), false);
+  for (int i = 0; i < 4000; ++i) {  // 40 s turning at 0.002 rad/s about the vertical
+    RawFrame fr = g.rest();
+    fr.gyro[2] = static_cast<std::int16_t>(fr.gyro[2] + std::lround(0.002 * 940.0));
+    both(fr, true);
+  }
+  for (int i = 0; i < 300; ++i) both(g.move(), false);
+  EXPECT_GT(events, 0u);
+  EXPECT_GT(plain.counts().held, 0u);
+  EXPECT_EQ(plain.counts().changes, 0u);
+  expect_same_counts(plain.counts(), stuck.counts());
+  EXPECT_EQ(stuck.counts().held, plain.counts().held);
+  EXPECT_EQ(stuck.counts().changes, plain.counts().changes);
+  std::size_t frozen = 0;
+  for (std::size_t k = 0; k < statuses.size(); ++k) {
+    if (k < FieldCalibrator<float>::kMagFrozenReadings) {
+      EXPECT_EQ(statuses[k], Status::kOk) << k;
+    }
+    EXPECT_TRUE(statuses[k] == Status::kOk || statuses[k] == Status::kSensorFrozen) << k;
+    frozen += statuses[k] == Status::kSensorFrozen ? 1u : 0u;
+  }
+  EXPECT_GT(frozen, statuses.size() / 4);
+}
+
+// A sensor frozen for longer than the microsecond clock's 71.6 minutes: its frames are refused
+// all along, and the time they span still passes (the bias's random walk over the spell).
+TEST(FieldFaults, AFreezeLongerThanTheClockKeepsTheTime) {
+  static FieldCalibrator<float> f;
+  ASSERT_EQ(f.start(fault_settings()), Status::kOk);
+  Frames g;
+  for (int i = 0; i < 1000; ++i) ASSERT_TRUE(taken(f.add_raw(g.rest())));
+  const float before = f.seconds();
+  const RawFrame stuck = g.rest();
+  std::uint32_t refused = 0;
+  const std::uint32_t frames = 75u * 60u * 100u;  // 75 minutes at 100 Hz
+  for (std::uint32_t k = 0; k < frames; ++k) {
+    RawFrame fr = stuck;
+    fr.t_us = g.t;
+    g.next();
+    const Status st = f.add_raw(fr);
+    if (st == Status::kSensorFrozen) ++refused;
+  }
+  EXPECT_EQ(refused, frames - 50u);  // after frozen_seconds (0.5 s)
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(taken(f.add_raw(g.rest())));
+  EXPECT_NEAR(f.seconds() - before, 75.0f * 60.0f + 1.0f, 0.05f);
 }
 
 }  // namespace

@@ -496,9 +496,9 @@ class AccelField {
            positive(s.half_life_days) && positive(s.change_sigma) &&
            non_negative(s.confirm_seconds) && positive(s.gate_chi2) && positive(s.better_ratio) &&
            positive(s.max_norm_error) && positive(s.prior_sigmas) &&
-           non_negative(s.resolve_seconds) && s.better_ratio < Scalar(1) &&
-           positive(s.determined_ratio) && s.iterations >= 1 && std::isfinite(s.min_dof) &&
-           s.min_dof >= Scalar(1);
+           non_negative(s.resolve_seconds) && s.resolve_seconds <= Scalar(1e9) &&
+           s.better_ratio < Scalar(1) && positive(s.determined_ratio) && s.iterations >= 1 &&
+           std::isfinite(s.min_dof) && s.min_dof >= Scalar(1);
   }
 
   static Scalar seconds(std::uint64_t us) { return static_cast<Scalar>(us / 1000u) * Scalar(1e-3); }
@@ -847,12 +847,10 @@ class AccelField {
   Scalar solution_cov_[kPacked] = {};   // the solution's, while it is judged
   Judgement judge_{};
   bool has_published_ = false, changed_ = false;
-  bool restarted_ = false;    // the solve started again from the prior since the cells changed
-  bool solution_ok_ = false;  // theta_ and solution_cov_ hold a solve's result
-  Scalar fit_chi2_ = Scalar(0);
-  std::uint64_t solved_us_ = 0,
-                resolve_us_ = 0;  // the last solve's rest, and the interval  // the cells' weighted
-                                  // squared residuals at the last solve
+  bool restarted_ = false;       // the solve started again from the prior since the cells changed
+  bool solution_ok_ = false;     // theta_ and solution_cov_ hold a solve's result
+  Scalar fit_chi2_ = Scalar(0);  // the cells' weighted squared residuals at the last solve
+  std::uint64_t solved_us_ = 0, resolve_us_ = 0;  // the last solve's rest, and the interval
   Cell cells_[kCells] = {};
   std::size_t n_cells_ = 0;
   Ne ne_{};

@@ -107,7 +107,10 @@ struct BiasFilter {
 
   // The bias at offset d, and the variance of one axis of it.
   Vector3<Scalar> value(Scalar d) const { return c + d * (s + d * q); }
-  Scalar variance(Scalar d) const { return h(d).dot(p * h(d)); }
+  Scalar variance(Scalar d) const {
+    const Scalar v = h(d).dot(p * h(d));
+    return v > Scalar(0) ? v : Scalar(0);  // rounding may take it just below zero far out
+  }
 
   // The model at temperature t (NaN: at T0), clamped to the range seen plus margin; its variance
   // at t itself (it grows beyond the range; infinite at an infinite or absurd temperature).

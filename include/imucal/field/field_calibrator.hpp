@@ -272,6 +272,8 @@ class FieldCalibrator {
   // solve/move_store.hpp, and the move is not used; none without GyroMatrix), sub-blocks of up
   // to 32 samples.
   static constexpr int kMoveSegments = GyroMatrix ? 4 : 0;
+  // Identical magnetometer readings in a rest beyond which the sensor is taken as stuck.
+  static constexpr std::uint32_t kMagFrozenReadings = 16;
   using Monitor = RestMonitor<Scalar, 2, 3, kMoveSegments, 32>;
 
   FieldCalibrator() = default;
@@ -281,9 +283,25 @@ class FieldCalibrator {
   // usable, for those sensors' models) or, with nullptr, from the nominal prior.
   // kInvalidArgument: settings out of range (then add() refuses every sample); kNonFiniteInput:
   // the prior holds a NaN or infinity (the nominal prior is used instead).
+  // The temperature model's range is taken as the temperatures seen plus temperature_margin_c,
+  // as calibration() stores it: the models start from that range less the margin (its middle if
+  // it is narrower than two margins), so a save after a resume stores the same range again.
   Status start(const Settings& settings, const Calibration<Scalar>* prior = nullptr,
                const TemperatureModel<Scalar>* temperature = nullptr,
                const MagCalibration<Scalar>* mag = nullptr) {
+    TemperatureModel<Scalar> seen{};
+    if (temperature != nullptr) {
+      seen = *temperature;
+      const Scalar lo = seen.min_c + settings.temperature_margin_c;
+      const Scalar hi = seen.max_c - settings.temperature_margin_c;
+      if (lo <= hi) {
+        seen.min_c = lo;
+        seen.max_c = hi;
+      } else if (seen.min_c <= seen.max_c) {
+        seen.min_c = seen.max_c = Scalar(0.5) * seen.min_c + Scalar(0.5) * seen.max_c;
+      }
+      temperature = &seen;
+    }
     settings_ = settings;
     valid_ = check(settings) && monitor_.reset(settings) == Status::kOk;
     gyro_cue_ = false;
@@ -454,7 +472,10 @@ class FieldCalibrator {
   Status add(const ImuSample<Scalar>& s) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add(s);
-    if (st == Status::kOk || sample_taken(st)) after_sample(s.t_us);
+    if (st == Status::kOk || sample_taken(st))
+      after_sample(s.t_us);
+    else
+      after_refusal(st, s.t_us);
     return st;
   }
 
@@ -462,7 +483,10 @@ class FieldCalibrator {
   Status add_raw(const RawFrame& f, Scalar temperature = std::numeric_limits<Scalar>::quiet_NaN()) {
     if (!valid_) return Status::kInvalidArgument;
     const Status st = monitor_.add_raw(f, temperature);
-    if (st == Status::kOk || sample_taken(st)) after_sample(f.t_us);
+    if (st == Status::kOk || sample_taken(st))
+      after_sample(f.t_us);
+    else
+      after_refusal(st, f.t_us);
     return st;
   }
 
@@ -503,8 +527,10 @@ class FieldCalibrator {
   // A magnetometer reading (raw units) that arrived with the latest sample: it shows a turn
   // about the vertical that the gyro and the accelerometer cannot tell from a bias. Nothing taken:
   // kNonFiniteInput for a NaN or infinity, kGlitch for a reading beyond any field the settings
-  // allow (a saturated sensor, a magnet at it; with the magnetometer's scale set), and
-  // kInvalidArgument without a valid start().
+  // allow (a saturated sensor, a magnet at it; with the magnetometer's scale set), kSensorFrozen
+  // in a rest whose first kMagFrozenReadings readings were all the same and for each such reading
+  // after them (a stuck sensor; give each new reading once), and kInvalidArgument without a
+  // valid start().
   Status add_mag(const Vector3<Scalar>& m) {
     if (!valid_) return Status::kInvalidArgument;
     if (!all_finite(m)) return Status::kNonFiniteInput;
@@ -522,6 +548,10 @@ class FieldCalibrator {
     }
     if (mag_n_ == 0) mag_ref_ = m;  // sums about the first reading: noise-sized terms
     const Vector3<Scalar> d = m - mag_ref_;
+    // A sensor stuck on one reading (a hung bus): kMagFrozenReadings identical readings in a rest,
+    // and each like them after, are refused.
+    if (mag_sq_ == Scalar(0) && mag_n_ >= kMagFrozenReadings && d.squaredNorm() == Scalar(0))
+      return Status::kSensorFrozen;
     mag_sum_ += d;
     mag_sq_ += d.squaredNorm();
     ++mag_n_;
@@ -556,9 +586,9 @@ class FieldCalibrator {
     out.gyro.b0 = published_.c;
     out.gyro.b1 = published_.s;
     out.gyro.b2 = published_.q;
-    out.gyro.b0_sigma.setConstant(std::sqrt(published_.p(0, 0)));
-    out.gyro.b1_sigma.setConstant(std::sqrt(published_.p(1, 1)));
-    out.gyro.b2_sigma.setConstant(std::sqrt(published_.p(2, 2)));
+    out.gyro.b0_sigma.setConstant(root(published_.p(0, 0)));
+    out.gyro.b1_sigma.setConstant(root(published_.p(1, 1)));
+    out.gyro.b2_sigma.setConstant(root(published_.p(2, 2)));
     out.gyro.status = has_published_ ? Status::kOk : Status::kNotStarted;
     if (accel_.published()) {
       AccelCalibration<Scalar> unused;
@@ -595,7 +625,7 @@ class FieldCalibrator {
     }
     if (!has_published_) return accel_.published();
     out.gyro.params.template tail<3>() = published_.c;
-    out.gyro.sigma.template tail<3>().setConstant(std::sqrt(published_.p(0, 0)));
+    out.gyro.sigma.template tail<3>().setConstant(root(published_.p(0, 0)));
     out.has_temperature = true;
     out.temperature_c = published_.reference_c;
     if (out.gyro.moves < 1) {  // the nominal model: the rests its bias came from (a record's
@@ -710,6 +740,9 @@ class FieldCalibrator {
   Scalar seconds() const { return static_cast<Scalar>(elapsed_us_ / 1000u) * Scalar(1e-3); }
 
  private:
+  // The square root of a variance that rounding may have taken just below zero.
+  static Scalar root(Scalar v) { return std::sqrt(v > Scalar(0) ? v : Scalar(0)); }
+
   static bool check(const Settings& s) {
     const auto positive = [](Scalar x) { return std::isfinite(x) && x > Scalar(0); };
     return positive(s.gyro_per_rad_s) && positive(s.bias_sigma) && std::isfinite(s.slope_sigma) &&
@@ -722,7 +755,17 @@ class FieldCalibrator {
            positive(s.better_ratio) && s.better_ratio < Scalar(1) &&
            std::isfinite(s.temperature_margin_c) && s.temperature_margin_c >= Scalar(0) &&
            positive(s.temperature_seconds) && s.first_rests >= 1 && positive(s.gyro_noise) &&
-           positive(s.save_interval_s) && s.saves_per_day >= 1 && s.gyro_matrix.valid();
+           positive(s.save_interval_s) && s.saves_per_day >= 1 && s.gyro_matrix.valid() &&
+           in_float_range(s);
+  }
+  // The prior's variances and the walk in raw units squared, and one raw unit in rad/s, finite
+  // (a scale near the type's largest or smallest would make them infinite).
+  static bool in_float_range(const Settings& s) {
+    const Scalar k = s.gyro_per_rad_s;
+    const auto square = [k](Scalar sigma) { return std::isfinite((sigma * k) * (sigma * k)); };
+    return std::isfinite(Scalar(1) / k) && square(s.bias_sigma) && square(s.slope_sigma) &&
+           square(s.curvature_sigma) && square(s.walk) && square(s.floor) &&
+           square(s.change_sigma) && square(s.turn_rate_max);
   }
 
   struct Piece {
@@ -808,6 +851,17 @@ class FieldCalibrator {
     rests_seen_ = monitor_.rests_found();
     RestSummary<Scalar> r;
     while (monitor_.take(r)) on_rest(r);
+  }
+
+  // A sample refused as a frozen or saturated sensor's is in order, and the front end orders the
+  // next against it: its time passes here too (a spell of hours is the bias's random walk of
+  // hours, and longer than the clock's 71.6 minutes it would otherwise be lost), unless a clock
+  // reset came with it (after_sample() places the rests then).
+  void after_refusal(Status st, std::uint32_t t_us) {
+    if (st != Status::kSensorFrozen && st != Status::kGyroSaturated) return;
+    if (!clock_started_ || monitor_.stream_counts().clock_resets != resets_seen_) return;
+    elapsed_us_ += static_cast<std::uint32_t>(t_us - last_t_us_);
+    last_t_us_ = t_us;
   }
 
   void after_sample(std::uint32_t t_us) {
@@ -1065,7 +1119,8 @@ class FieldCalibrator {
     } else if (e == AccelFieldEvent::kUnconfirmed) {
       event(FieldEventKind::kRejected, FieldReason::kUnconfirmed, t, m.last_chi2(), sensor);
     } else if (e == AccelFieldEvent::kImplausible) {
-      // Once per run of them: a setup that is wrong says so once, not with every rest.
+      // The first only: a setup that is wrong says so once, not with every rest (the count has
+      // every one of them).
       if (implausible++ == 0)
         event(FieldEventKind::kRejected, FieldReason::kImplausible, t, Scalar(0), sensor);
     } else if (e == AccelFieldEvent::kChangeDetected) {
@@ -1122,7 +1177,9 @@ class FieldCalibrator {
       // The variance of one reading (summed over the axes) over n: that of the mean.
       const Scalar var = (mag_sq_ - n * mean.squaredNorm()) / (n - Scalar(1));
       p.mag_var = (var > Scalar(0) ? var : Scalar(0)) / n;
-      p.has_mag = true;
+      // Readings without any spread say nothing of the field holding still (a sensor stuck on
+      // one reading would verify every turn): such a piece has no field.
+      p.has_mag = var > Scalar(0);
       // One reading's noise: a piece spread more than twice the noise known holds a change (a
       // magnetisation step, a magnet passing), which must not make the next readings' looks
       // blind to it; so the noise grows at most twofold a piece.
