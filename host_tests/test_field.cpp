@@ -1376,7 +1376,7 @@ TEST(FieldStore, APowerCutAtEveryStepOfASaveLosesNothingSaved) {
       ASSERT_TRUE(saved);
       ++completed;
     } else {
-      EXPECT_TRUE(field.save_due()) << n;  // still due: nothing lost in RAM either
+      EXPECT_TRUE(field.unsaved()) << n;  // still to be saved: nothing lost in RAM either
     }
     flash.power_on();
     RecordStore after(flash);
@@ -1493,6 +1493,75 @@ TEST(FieldFaults, AFrameBehindIsRefusedRightAfterTheFirstPublication) {
   EXPECT_EQ(f.seconds(), seconds);
   for (int i = 0; i < 10; ++i) EXPECT_TRUE(taken(f.add_raw(g.rest())));
   EXPECT_NEAR(f.seconds(), seconds + 0.11f, 0.0015f);  // ten frames after the one refused
+}
+
+// The stream's counts are the whole stream's: the monitor's restart at the first publication
+// keeps them, and a clock reset after it is counted as one and adds no time.
+TEST(FieldFaults, TheStreamCountsGoOnThroughTheFirstPublication) {
+  static FieldCalibrator<float> f;
+  ASSERT_EQ(f.start(fault_settings()), Status::kOk);
+  Frames g;
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(taken(f.add_raw(g.rest())));
+  RawFrame same = g.rest();
+  ASSERT_TRUE(taken(f.add_raw(same)));
+  EXPECT_EQ(f.add_raw(same), Status::kTimeRepeated);
+  g.t -= 50000;  // frames behind the latest: two refused, the third resynchronises
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(f.add_raw(g.rest()), Status::kTimeBackwards);
+  EXPECT_EQ(f.add_raw(g.rest()), Status::kClockReset);
+  ASSERT_TRUE(until_published(f, g, kNaN));
+  EXPECT_EQ(f.monitor().samples_refused(), 3u);
+  EXPECT_EQ(f.monitor().stream_counts().time_repeated, 1u);
+  EXPECT_EQ(f.monitor().stream_counts().time_backwards, 2u);
+  EXPECT_EQ(f.monitor().stream_counts().clock_resets, 1u);
+  const float seconds = f.seconds();
+  g.t -= 3000000;  // the clock starts again 3 s back
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(f.add_raw(g.rest()), Status::kTimeBackwards);
+  EXPECT_EQ(f.add_raw(g.rest()), Status::kClockReset);
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(taken(f.add_raw(g.rest())));
+  EXPECT_EQ(f.monitor().samples_refused(), 5u);
+  EXPECT_EQ(f.monitor().stream_counts().clock_resets, 2u);
+  EXPECT_NEAR(f.seconds(), seconds + 0.1f, 0.015f);
+}
+
+// A save the flash fails (a worn sector) counts against the wear budget: calling save_field()
+// again writes nothing until the interval has passed, then the publication is saved.
+TEST(FieldStore, AFailedSaveWaitsItsTurnInTheWearBudget) {
+  static FieldCalibrator<float> f;
+  FieldSettings<float> settings = plain_settings();
+  settings.save_interval_s = 60.0f;
+  ASSERT_EQ(f.start(settings), Status::kOk);
+  Frames g;
+  ASSERT_TRUE(until_published(f, g, kNaN));
+  for (int i = 0; i < 10000 && !f.save_due(); ++i) ASSERT_TRUE(taken(f.add_raw(g.rest())));
+  ASSERT_TRUE(f.save_due());
+  static Flash flash;
+  flash = Flash();
+  flash.cut_power_after(100);  // the flash fails within the save
+  RecordStore store(flash);
+  bool saved = true;
+  const Status failed = save_field(f, store, 7u, 0x6A68u, &saved);
+  EXPECT_TRUE(failed == Status::kStorageError || failed == Status::kStorageVerifyFailed)
+      << to_string(failed);
+  EXPECT_FALSE(saved);
+  EXPECT_TRUE(f.unsaved());
+  EXPECT_FALSE(f.save_due());
+  flash.power_on();
+  RecordStore again(flash);
+  const std::uint32_t ops = flash.byte_operations();
+  for (int i = 0; i < 5900; ++i) {  // 59 s: not its turn yet
+    EXPECT_EQ(save_field(f, again, 7u, 0x6A68u, &saved), Status::kOk);
+    EXPECT_FALSE(saved);
+    EXPECT_TRUE(taken(f.add_raw(g.rest())));
+  }
+  EXPECT_EQ(flash.byte_operations(), ops);  // nothing erased or written meanwhile
+  for (int i = 0; i < 200 && !f.save_due(); ++i) EXPECT_TRUE(taken(f.add_raw(g.rest())));
+  ASSERT_TRUE(f.save_due());
+  EXPECT_EQ(save_field(f, again, 7u, 0x6A68u, &saved), Status::kOk);
+  EXPECT_TRUE(saved);
+  EXPECT_FALSE(f.unsaved());
+  EXPECT_EQ(f.counts().saves, 1u);
+  CalibrationRecord loaded;
+  EXPECT_EQ(again.load(loaded), Status::kOk);
 }
 
 // The sensor's clock starts again: three frames behind it make a clock reset, and the time

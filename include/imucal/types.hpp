@@ -148,15 +148,20 @@ template <typename Scalar>
 Scalar from_temperature_q_sum(std::int64_t q) {
   return to_scalar<Scalar>(q) * Scalar(1.0 / kTemperatureQ);
 }
+// Saturating conversion of a non-negative limit to an unsigned 32-bit one: what is not positive
+// gives 0, what is not below the cap (NaN and infinity too) the cap.
+template <typename Scalar>
+std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
+  if (!(x < static_cast<Scalar>(cap))) return cap;
+  return x > Scalar(0) ? static_cast<std::uint32_t>(x) : 0u;
+}
 // Seconds as whole microseconds in 32 bits, truncated as a cast truncates: NaN and what is not
 // positive give 0, what is 2^32 us (71.6 minutes) or more the largest. Settings are converted
 // with it before they are checked, so an absurd one converts without undefined behaviour.
 template <typename Scalar>
 std::uint32_t seconds_to_us(Scalar seconds) {
   const Scalar us = seconds * Scalar(1e6);
-  if (!(us > Scalar(0))) return 0u;
-  if (!(us < Scalar(4294967296.0))) return 0xFFFFFFFFu;
-  return static_cast<std::uint32_t>(us);
+  return std::isnan(us) ? 0u : to_u32_limit(us, 0xFFFFFFFFu);
 }
 }  // namespace detail
 

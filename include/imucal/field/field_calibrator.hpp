@@ -645,20 +645,21 @@ class FieldCalibrator {
            saves_today_ < static_cast<std::uint32_t>(settings_.saves_per_day);
   }
 
+  // A publication not saved yet, due now or waiting for the wear budget.
+  bool unsaved() const { return unsaved_; }
+
   // The publication was saved (the caller's RecordStore::save() returned kOk): counted against
   // the budget, a kSaved event.
   void mark_saved() {
-    const std::uint64_t now = elapsed_us_ / 1000000u;
-    if (now - day_start_s_ >= 86400u) {
-      day_start_s_ = now;
-      saves_today_ = 0;
-    }
-    ++saves_today_;
-    last_save_s_ = now;
+    spend_save();
     unsaved_ = false;
     ++counts_.saves;
     event(FieldEventKind::kSaved, FieldReason::kNone, temperature_, Scalar(0));
   }
+  // A save failed after it reached the flash (kStorageError, kStorageVerifyFailed): it wore the
+  // flash as a save does and counts against the budget, so a failing sector is not erased again
+  // on every call; the publication stays unsaved and is saved at its next turn.
+  void mark_save_failed() { spend_save(); }
 
   // The oldest decision not taken yet; false if none. Events wait in a ring of Events; beyond
   // that the oldest is overwritten (counts().events_dropped).
@@ -838,10 +839,21 @@ class FieldCalibrator {
       set_detector_bias();
   }
 
-  // The rest monitor was reset: its counts of rests, temperatures and clock resets start again
-  // from zero.
+  void spend_save() {
+    const std::uint64_t now = elapsed_us_ / 1000000u;
+    if (now - day_start_s_ >= 86400u) {
+      day_start_s_ = now;
+      saves_today_ = 0;
+    }
+    ++saves_today_;
+    last_save_s_ = now;
+  }
+
+  // The rest monitor was reset: its counts of rests and temperatures start again from zero, its
+  // count of clock resets does so unless the stream went on (reset_in_stream()).
   void monitor_restarted() {
-    rests_seen_ = temps_seen_ = resets_seen_ = 0;
+    rests_seen_ = temps_seen_ = 0;
+    resets_seen_ = monitor_.stream_counts().clock_resets;
     temp_sum_seen_ = 0;
   }
 

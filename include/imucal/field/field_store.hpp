@@ -24,7 +24,9 @@ namespace imucal {
 // calibrator's published one, else `mag` if given. *saved (if given) says whether it wrote.
 // kOk: saved, or nothing due; otherwise the first failure (make_record()'s kInvalidArgument or
 // kImplausible, the store's kStorageError, kStorageVerifyFailed, kStorageBusy), and the
-// publication stays due: the record load() returns is the previous one or the new one.
+// publication stays unsaved: the record load() returns is the previous one or the new one. A
+// failure of the flash itself (kStorageError, kStorageVerifyFailed) counts against the wear
+// budget as a save does: the next try waits its turn.
 template <int Events, int MagCells, bool GyroMatrix>
 Status save_field(FieldCalibrator<float, Events, MagCells, GyroMatrix>& field, RecordStore& store,
                   std::uint32_t device_id, std::uint32_t sensor_id, bool* saved = nullptr,
@@ -40,6 +42,7 @@ Status save_field(FieldCalibrator<float, Events, MagCells, GyroMatrix>& field, R
   Status s = make_record(calibration, device_id, sensor_id, record, mag, &model);
   if (!succeeded(s)) return s;
   s = store.save(record);
+  if (s == Status::kStorageError || s == Status::kStorageVerifyFailed) field.mark_save_failed();
   if (s != Status::kOk) return s;
   field.mark_saved();
   if (saved != nullptr) *saved = true;

@@ -285,7 +285,6 @@ class StreamChecks {
       gyro_scale_.set(s.gyro_min, s.gyro_max);
       set_counts_range(int_floor(s.gyro_min), int_ceil(s.gyro_max), gyro_lo1_, gyro_span_);
     } else {  // no gyro: the zeros that stand for its readings are never at a limit
-      gyro_scale_ = FullScale<Scalar>{};
       gyro_scale_.set(-std::numeric_limits<Scalar>::infinity(),
                       std::numeric_limits<Scalar>::infinity());
       set_counts_range(-65536, 65536, gyro_lo1_, gyro_span_);
@@ -495,13 +494,17 @@ class StreamChecks {
   void restart() { restart_ = true; }
   // As reset(), within one stream (new settings mid-stream): the next sample is still ordered
   // against the latest one seen, so one behind it is refused or makes a clock reset; it starts
-  // the stream again.
+  // the stream again. The counts (counts(), refused()) are the whole stream's and go on.
   void reset_in_stream(const StreamSettings<Scalar>& s) {
     const bool had = have_prev_;
     const std::uint32_t t = t_prev_;
+    const StreamCounts counts = counts_;
+    const std::uint32_t refused = refused_;
     reset(s);
     have_prev_ = had;
     t_prev_ = t;
+    counts_ = counts;
+    refused_ = refused;
   }
   // The latest notable event of the stream (the consumer's own too, through note()).
   Status last_event() const { return last_event_; }

@@ -106,6 +106,7 @@ class RestMonitor {
   Status reset(const RestMonitorSettings<Scalar>& settings) { return reset(settings, false); }
   // As reset(), within one stream (new settings mid-stream): the next sample is still ordered
   // against the latest one, so one behind it is refused (kTimeBackwards) or makes a clock reset.
+  // The stream's counts (stream_counts(), samples_refused(), dropped()) go on.
   Status reset_in_stream(const RestMonitorSettings<Scalar>& settings) {
     return reset(settings, true);
   }
@@ -118,13 +119,13 @@ class RestMonitor {
       checks_.reset_in_stream(settings);
     else
       checks_.reset(settings);
-    checks_.set_gap_limit(
-        valid_ ? static_cast<std::uint32_t>(settings.max_step_seconds * Scalar(1e6)) : 0u);
+    checks_.set_gap_limit(valid_ ? detail::seconds_to_us(settings.max_step_seconds) : 0u);
     segmenter_.reset(settings);
     started_ = false;
     after_motion_ = true;
     queue_.clear();
-    dropped_ = emitted_ = 0;
+    if (!in_stream) dropped_ = 0;
+    emitted_ = 0;
     if constexpr (MoveSegments > 0) {
       can_keep_moves_ = valid_ && std::isfinite(settings.move_max_angle) &&
                         std::isfinite(settings.move_max_error) &&

@@ -147,13 +147,6 @@ struct FinishedSubBlock {
 
 namespace detail {
 
-// Saturating conversion of a non-negative limit to an unsigned 32-bit one.
-template <typename Scalar>
-std::uint32_t to_u32_limit(Scalar x, std::uint32_t cap) {
-  if (!(x < static_cast<Scalar>(cap))) return cap;  // NaN and infinity too
-  return x > Scalar(0) ? static_cast<std::uint32_t>(x) : 0u;
-}
-
 // Whether a 32 x 32 -> 64-bit multiply is a call into the runtime (ARMv6-M, ARMv8-M Baseline:
 // no long multiply instruction). There, products of operands that fit 16 bits take 32 bits.
 #if defined(__ARM_ARCH_6M__) || defined(__ARM_ARCH_8M_BASE__)
