@@ -140,6 +140,34 @@ TEST(Corrector, MagnetometerIsTheModel) {
   EXPECT_EQ(other.parts(), 0);
 }
 
+// A magnetometer's record alone (the tool's magnetometer-only calibration) loads its
+// magnetometer; the accelerometer and the gyro pass through.
+TEST(Corrector, AMagnetometerRecordAloneIsApplied) {
+  const MagCalibration<double> m = test::example_mag();
+  CalibrationRecord r;
+  ASSERT_EQ(make_record(Calibration<double>{}, 1, 2, r, &m), Status::kOk);
+  ASSERT_EQ(r.parts, kRecordMag);
+  std::uint8_t bytes[kRecordMaxBytes];
+  std::size_t n = 0;
+  ASSERT_EQ(encode_record(r, bytes, sizeof bytes, &n), Status::kOk);
+  CalibrationRecord back;
+  ASSERT_EQ(decode_record(bytes, n, back), Status::kOk);
+  Corrector<float> from_record, from_mag;
+  ASSERT_EQ(from_record.set(back), Status::kOk);
+  EXPECT_EQ(from_record.parts(), kRecordMag);
+  ASSERT_EQ(from_mag.set_mag(back.mag), Status::kOk);
+  const Vector3<float> raw(120.0f, -340.0f, 560.0f);
+  EXPECT_EQ(from_record.mag(raw), from_mag.mag(raw));
+  EXPECT_NE(from_record.mag(raw), raw);
+  EXPECT_EQ(from_record.accel(raw), raw);
+  // A record with nothing usable still loads nothing.
+  CalibrationRecord empty = back;
+  empty.parts = 0;
+  Corrector<float> none;
+  EXPECT_NE(none.set(empty), Status::kOk);
+  EXPECT_EQ(none.parts(), 0);
+}
+
 // Biases follow the temperature model: at T the offsets are M b(T); outside the fitted range
 // they stay at its edge (no extrapolation); a NaN temperature keeps the last ones.
 TEST(Corrector, BiasesFollowTheTemperature) {

@@ -628,6 +628,34 @@ TEST(RecordPlausibility, AnAbsurdTemperatureNoteIsDroppedNotTheCalibration) {
   EXPECT_EQ(r.calibration.temperature_c, 199.0f);
 }
 
+// Likewise an absurd sample-rate note is dropped (0: unknown), and a record written by hand
+// with one is refused as implausible, naming the bound.
+TEST(RecordPlausibility, AnAbsurdSampleRateNoteIsDroppedNotTheCalibration) {
+  for (double rate : {2e6, -100.0, 1e300, std::numeric_limits<double>::infinity(),
+                      std::numeric_limits<double>::quiet_NaN()}) {
+    Calibration<double> c = example_calibration();
+    c.sample_rate_hz = rate;
+    CalibrationRecord r;
+    ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk) << rate;
+    EXPECT_EQ(r.calibration.sample_rate_hz, 0.0f) << rate;
+    std::uint8_t buf[kRecordMaxBytes];
+    std::size_t n = 0;
+    EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kOk) << rate;
+  }
+  Calibration<double> c = example_calibration();
+  c.sample_rate_hz = 1e6;  // inside the bounds: kept
+  CalibrationRecord r;
+  ASSERT_EQ(make_record(c, 1, 2, r), Status::kOk);
+  EXPECT_EQ(r.calibration.sample_rate_hz, 1e6f);
+  r.calibration.sample_rate_hz = 2e6f;
+  std::uint8_t buf[kRecordMaxBytes];
+  std::size_t n = 0;
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kImplausible);
+  EXPECT_EQ(record_bound(r), Bound::kSampleRate);
+  r.calibration.sample_rate_hz = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(encode_record(r, buf, sizeof buf, &n), Status::kInvalidArgument);
+}
+
 // The sections of an encoded record with the given tags, under the parts field `parts`: bytes a
 // hand-made (or an older) encoder could have written.
 Encoded with_sections(const Encoded& e, std::initializer_list<int> tags, std::uint16_t parts) {

@@ -448,7 +448,7 @@ bool record_ok(const CalibrationRecord& r) {
   const Calibration<float>& c = r.calibration;
   return (r.parts & ~kKnownParts) == 0 && r.parts != 0 && c.quality <= Quality::kGood &&
          meets(c.temperature_c, c.has_temperature ? kCelsius : kZeroOnly) &&
-         meets(c.sample_rate_hz, kRate) && (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
+         bounds::is_finite(c.sample_rate_hz) && (!(r.parts & kRecordAccel) || accel_ok(c.accel)) &&
          (!(r.parts & kRecordGyro) || gyro_ok(c.gyro)) &&
          (!(r.parts & kRecordMag) || mag_ok(r.mag)) &&
          (!(r.parts & kRecordTemperature) || temperature_model_ok(r.temperature, r.parts));
@@ -673,8 +673,11 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
   r.sensor_id = sensor_id;
   Calibration<float>& f = r.calibration;
   f.quality = c.quality;
-  f.sample_rate_hz = static_cast<float>(c.sample_rate_hz);
-  // A temperature note that is not a plausible temperature is dropped, not the calibration.
+  // A note that is not a plausible sample rate or temperature is dropped, not the calibration
+  // (a rate of 0 is unknown).
+  f.sample_rate_hz = c.sample_rate_hz >= Scalar(0) && c.sample_rate_hz <= Scalar(1e6)
+                         ? static_cast<float>(c.sample_rate_hz)
+                         : 0.0f;
   f.has_temperature = c.has_temperature && temperature_plausible(c.temperature_c);
   f.temperature_c = f.has_temperature ? static_cast<float>(c.temperature_c) : 0.0f;
   if (succeeded(c.accel.status)) {

@@ -88,6 +88,10 @@ class Corrector {
   Status set(const CalibrationRecord& r) {
     Corrector next;
     Status s = next.set(r.calibration);
+    // A magnetometer's record alone holds no accelerometer or gyro to load.
+    if (s == Status::kNotStarted && (r.parts & (kRecordAccel | kRecordGyro)) == 0 &&
+        (r.parts & kRecordMag))
+      s = Status::kOk;
     if (s == Status::kOk && (r.parts & kRecordMag)) s = next.set_mag(r.mag);
     if (s == Status::kOk && (r.parts & kRecordTemperature)) {
       s = next.set_temperature_model(r.temperature);
