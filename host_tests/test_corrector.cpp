@@ -99,6 +99,20 @@ TEST(Corrector, ApplyCheckedRefusesNonFiniteReadings) {
   EXPECT_EQ(a_out, Vector3<float>(7, 7, 7));
   EXPECT_EQ(corr.apply_checked(good, good, a_out, w_out), Status::kOk);
   EXPECT_TRUE(std::isfinite(a_out.sum()) && std::isfinite(w_out.sum()));
+  // The magnetometer likewise, calibrated or passing through.
+  for (int calibrated = 0; calibrated < 2; ++calibrated) {
+    if (calibrated) {
+      ASSERT_EQ(corr.set_mag(test::example_mag()), Status::kOk);
+    }
+    Vector3<float> m_out(7, 7, 7);
+    EXPECT_EQ(corr.mag_checked(bad, m_out), Status::kNonFiniteInput);
+    const Vector3<float> inf(std::numeric_limits<float>::infinity(), 0.0f, 0.0f);
+    EXPECT_EQ(corr.mag_checked(inf, m_out), Status::kNonFiniteInput);
+    EXPECT_EQ(m_out, Vector3<float>(7, 7, 7));
+    const Vector3<float> field(120.0f, -340.0f, 560.0f);
+    EXPECT_EQ(corr.mag_checked(field, m_out), Status::kOk);
+    EXPECT_EQ(m_out, corr.mag(field));
+  }
 }
 
 TEST(Corrector, FromADecodedRecord) {

@@ -9,9 +9,9 @@
 //
 // apply() has no branches and no checks: 9 multiply-adds and 3 adds per sensor (instruction
 // count on Cortex-M4F in the README, bench/insn/bench_apply.cpp). A non-finite raw reading gives
-// a non-finite output there; apply_checked() refuses it instead, and never returns kOk with a
-// non-finite result. A sensor without a usable calibration passes through unchanged (M = I,
-// c = 0) and parts() says so. Never allocates.
+// a non-finite output there; apply_checked() and mag_checked() refuse it instead, and never
+// return kOk with a non-finite result. A sensor without a usable calibration passes through
+// unchanged (M = I, c = 0) and parts() says so. Never allocates.
 //
 // Every value is checked against its physical bounds (plausibility.hpp) before it is loaded: a
 // calibration with a part out of bounds is refused whole (kImplausible, bound() says which; a
@@ -187,6 +187,13 @@ class Corrector {
     if (!((a - a).sum() + (w - w).sum() == Scalar(0))) return Status::kNonFiniteInput;
     acc = a;
     gyro = w;
+    return Status::kOk;
+  }
+  // As mag(), refused in the same way (kNonFiniteInput, the output untouched).
+  Status mag_checked(const Vector3<Scalar>& raw, Vector3<Scalar>& out) const {
+    const Vector3<Scalar> m = mag(raw);
+    if (!((m - m).sum() == Scalar(0))) return Status::kNonFiniteInput;
+    out = m;
     return Status::kOk;
   }
 
