@@ -301,6 +301,41 @@ TEST(AccelField, RestsAllRoundDetermineTheFullModelWithinSigma) {
   }
 }
 
+// A rest that comes while a solve adds the prior's rows waits for the next solve: the pass takes
+// the cells there when it began, so no prior row is added twice (a parameter no rest determines
+// would come out with its prior sigma over sqrt(2)).
+TEST(AccelField, ARestDuringASolveWaitsForTheNext) {
+  AccelField<float> a;
+  AccelFieldSettings<float> s = accel_settings();
+  s.iterations = 1;
+  ASSERT_EQ(a.start(s), Status::kOk);
+  const AccelTruth truth;
+  sim::Random rng(9);
+  std::uint64_t t_us = 1000000;
+  std::uint32_t group = 0;
+  auto add = [&](const Vector3<double>& u) {
+    const Vector3<double> x = truth.reading(u, 25.0, 9.80665) + 4.9 * rng.normal3();
+    a.add(x.cast<float>(), 1.0f, 25.0f, t_us, group++);
+    t_us += 60000000u;
+  };
+  add(Vector3<double>(0.0, 0.0, 1.0));
+  ASSERT_TRUE(a.busy());
+  constexpr int kParams = AccelField<float>::kParams;
+  const int before = kBiasY + 2;  // the cell's row and the prior's rows before kBiasY's
+  for (int i = 0; i < before; ++i) a.step();
+  add(Vector3<double>(1.0, 0.0, 0.0));
+  ASSERT_EQ(a.cells(), 2u);
+  // The rest of the pass (one row more if the new cell were taken in it), its one Gauss-Newton
+  // step and the covariance's columns; then the cells are judged, which leaves the sigmas.
+  for (int i = 0; i < 1 + kParams - before + 1 + 1 + kParams; ++i) a.step();
+  ASSERT_TRUE(a.busy());
+  const float prior = a.prior_sigmas()(kBiasY);
+  EXPECT_NEAR(a.solution_sigmas()(kBiasY), prior, 1e-3f * prior);
+  for (int i = 0; i < 10000 && a.busy(); ++i) a.step();
+  EXPECT_FALSE(a.busy());
+  EXPECT_NEAR(a.solution_sigmas()(kBiasY), prior, 1e-3f * prior);  // the next solve's, both cells
+}
+
 // One orientation for a long time (z up), over temperatures: the bias and scale along gravity are
 // refined only as a combination; the other axes' biases keep their prior value and sigma.
 TEST(AccelField, OneOrientationRefinesOnlyWhatItDetermines) {

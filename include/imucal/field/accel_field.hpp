@@ -282,16 +282,18 @@ class AccelField {
       case Phase::kIdle:
         return AccelFieldEvent::kNone;
       case Phase::kRows: {
-        if (row_ < n_cells_) {
+        // The cells there when the pass began: one a rest adds meanwhile waits for the next
+        // solve (again_), so that the prior's rows are each added once.
+        if (row_ < pass_cells_) {
           add_cell_row(cells_[row_]);
         } else {
-          const int k = static_cast<int>(row_ - n_cells_);  // the prior's rows
+          const int k = static_cast<int>(row_ - pass_cells_);  // the prior's rows
           typename Ne::Vector j = Ne::Vector::Zero();
           j(k) = Scalar(1);
           const Scalar s = sigma0_(k);
           ne_.add(j, theta_(k) - theta0_(k), Scalar(1) / (s * s));
         }
-        if (++row_ == n_cells_ + static_cast<std::size_t>(kParams)) phase_ = Phase::kSolve;
+        if (++row_ == pass_cells_ + static_cast<std::size_t>(kParams)) phase_ = Phase::kSolve;
         return AccelFieldEvent::kNone;
       }
       case Phase::kSolve: {
@@ -729,6 +731,7 @@ class AccelField {
       return;
     }
     iteration_ = 0;
+    solution_ok_ = false;  // theta_ and solution_cov_ are the new solve's from here on
     begin_rows();
   }
 
@@ -740,6 +743,7 @@ class AccelField {
     ne_.set_min_pivot_ratio(Scalar(10) * std::numeric_limits<Scalar>::epsilon());
     ne_.clear();
     row_ = 0;
+    pass_cells_ = static_cast<std::uint16_t>(n_cells_);
     phase_ = Phase::kRows;
   }
 
@@ -856,6 +860,7 @@ class AccelField {
   Ne ne_{};
   Phase phase_ = Phase::kIdle;
   bool again_ = false;
+  std::uint16_t pass_cells_ = 0;  // the cells the solve's pass of rows takes
   std::size_t row_ = 0;
   int iteration_ = 0;
   bool candidate_ = false;
