@@ -115,14 +115,19 @@ TEST(Corrector, ApplyCheckedRefusesNonFiniteReadings) {
   }
 }
 
-TEST(Corrector, FromADecodedRecord) {
-  CalibrationRecord r;
-  ASSERT_EQ(make_record(xsens_like(), 1, 2, r), Status::kOk);
+// The record as the store keeps it: encoded, then decoded.
+void through_bytes(const CalibrationRecord& r, CalibrationRecord& back) {
   std::uint8_t bytes[kRecordMaxBytes];
   std::size_t n = 0;
   ASSERT_EQ(encode_record(r, bytes, sizeof bytes, &n), Status::kOk);
-  CalibrationRecord back;
   ASSERT_EQ(decode_record(bytes, n, back), Status::kOk);
+}
+
+TEST(Corrector, FromADecodedRecord) {
+  CalibrationRecord r;
+  ASSERT_EQ(make_record(xsens_like(), 1, 2, r), Status::kOk);
+  CalibrationRecord back;
+  ASSERT_NO_FATAL_FAILURE(through_bytes(r, back));
   Corrector<float> from_record, from_float;
   ASSERT_EQ(from_record.set(back), Status::kOk);
   ASSERT_EQ(from_float.set(r.calibration), Status::kOk);
@@ -161,11 +166,8 @@ TEST(Corrector, AMagnetometerRecordAloneIsApplied) {
   CalibrationRecord r;
   ASSERT_EQ(make_record(Calibration<double>{}, 1, 2, r, &m), Status::kOk);
   ASSERT_EQ(r.parts, kRecordMag);
-  std::uint8_t bytes[kRecordMaxBytes];
-  std::size_t n = 0;
-  ASSERT_EQ(encode_record(r, bytes, sizeof bytes, &n), Status::kOk);
   CalibrationRecord back;
-  ASSERT_EQ(decode_record(bytes, n, back), Status::kOk);
+  ASSERT_NO_FATAL_FAILURE(through_bytes(r, back));
   Corrector<float> from_record, from_mag;
   ASSERT_EQ(from_record.set(back), Status::kOk);
   EXPECT_EQ(from_record.parts(), kRecordMag);
@@ -234,11 +236,8 @@ TEST(Corrector, EveryPartFromARecord) {
   const MagCalibration<double> m = test::example_mag();
   const TemperatureModel<double> t = test::example_temperature(1);
   ASSERT_EQ(make_record(xsens_like(), 1, 2, r, &m, &t), Status::kOk);
-  std::uint8_t bytes[kRecordMaxBytes];
-  std::size_t n = 0;
-  ASSERT_EQ(encode_record(r, bytes, sizeof bytes, &n), Status::kOk);
   CalibrationRecord back;
-  ASSERT_EQ(decode_record(bytes, n, back), Status::kOk);
+  ASSERT_NO_FATAL_FAILURE(through_bytes(r, back));
   Corrector<float> corr;
   ASSERT_EQ(corr.set(back), Status::kOk);
   EXPECT_EQ(corr.parts(), kRecordAccel | kRecordGyro | kRecordMag | kRecordTemperature);
