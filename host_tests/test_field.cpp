@@ -489,6 +489,23 @@ TEST(AccelField, SettingsOutOfRangeAndBadRestsAreRefused) {
             AccelFieldEvent::kNone);
   EXPECT_EQ(a.cells(), 0u);
   EXPECT_FALSE(a.busy());
+  // A reading whose norm overflows, or a negative variance, is no gravity: refused, no cell made
+  // (with the tolerance of a magnetometer's model, |norm - 1| <= 1, as with the accelerometer's).
+  for (float tolerance : {0.05f, 1.0f}) {
+    AccelFieldSettings<float> loose = accel_settings();
+    loose.max_norm_error = tolerance;
+    ASSERT_EQ(a.start(loose), Status::kOk);
+    const float huge = 3e38f;
+    for (const Vector3<float>& x :
+         {Vector3<float>(huge, huge, huge), Vector3<float>(huge, -huge, huge)}) {
+      EXPECT_EQ(a.add(x, 1.0f, 25.0f, 1000000u, 0u), AccelFieldEvent::kImplausible) << tolerance;
+    }
+    EXPECT_EQ(a.add(Vector3<float>(0.0f, 0.0f, 9806.0f), -1.0f, 25.0f, 2000000u, 1u),
+              AccelFieldEvent::kImplausible)
+        << tolerance;
+    EXPECT_EQ(a.cells(), 0u) << tolerance;
+    EXPECT_TRUE(all_finite(a.published_parameters()));
+  }
   // The field calibrator refuses its settings when the accelerometer's are out of range.
   FieldSettings<float> f;
   f.gyro_noise = 1.0f;

@@ -221,13 +221,15 @@ class AccelField {
                       std::uint64_t time_us, std::uint32_t group, Scalar other_chi2 = Scalar(0)) {
     if (!valid_ || !all_finite(mean_raw) || !std::isfinite(mean_variance))
       return AccelFieldEvent::kNone;
+    if (mean_variance < Scalar(0)) return AccelFieldEvent::kImplausible;  // no mean of readings
     Pose p = pose(mean_raw, mean_variance, t);
     // Through the published model, allowing for its bias's sigma (a magnetometer's hard iron is
     // as large as the field until it is known).
     const Scalar norm2 = Scalar(1) - residual(published_, p.x, t, nullptr);
     const Scalar allowance =
         settings_.max_norm_error + Scalar(3) * published_sigma_.template segment<3>(kBiasX).norm();
-    if (!(std::fabs(std::sqrt(norm2 > Scalar(0) ? norm2 : Scalar(0)) - Scalar(1)) <= allowance))
+    if (std::isnan(norm2) ||
+        !(std::fabs(std::sqrt(norm2 > Scalar(0) ? norm2 : Scalar(0)) - Scalar(1)) <= allowance))
       return AccelFieldEvent::kImplausible;
     p.time_us = time_us;
     p.group = group;
