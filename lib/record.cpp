@@ -675,7 +675,8 @@ Status make_record(const Calibration<Scalar>& c, std::uint32_t device_id, std::u
   f.quality = c.quality;
   // A note that is not a plausible sample rate or temperature is dropped, not the calibration
   // (a rate of 0 is unknown).
-  f.sample_rate_hz = c.sample_rate_hz >= Scalar(0) && c.sample_rate_hz <= Scalar(1e6)
+  f.sample_rate_hz = c.sample_rate_hz >= Scalar(0) &&
+                             c.sample_rate_hz <= static_cast<Scalar>(bounds::kMaxSampleRateHz)
                          ? static_cast<float>(c.sample_rate_hz)
                          : 0.0f;
   f.has_temperature = c.has_temperature && temperature_plausible(c.temperature_c);

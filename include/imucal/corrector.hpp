@@ -87,11 +87,9 @@ class Corrector {
   // reference temperature.
   Status set(const CalibrationRecord& r) {
     Corrector next;
-    Status s = next.set(r.calibration);
     // A magnetometer's record alone holds no accelerometer or gyro to load.
-    if (s == Status::kNotStarted && (r.parts & (kRecordAccel | kRecordGyro)) == 0 &&
-        (r.parts & kRecordMag))
-      s = Status::kOk;
+    const bool mag_alone = (r.parts & (kRecordAccel | kRecordGyro)) == 0 && (r.parts & kRecordMag);
+    Status s = mag_alone ? Status::kOk : next.set(r.calibration);
     if (s == Status::kOk && (r.parts & kRecordMag)) s = next.set_mag(r.mag);
     if (s == Status::kOk && (r.parts & kRecordTemperature)) {
       s = next.set_temperature_model(r.temperature);
