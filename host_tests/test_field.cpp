@@ -78,6 +78,42 @@ TEST(BiasFilter, ClampsBeyondWhatItSawWhileItsVarianceGrows) {
   EXPECT_EQ(f.p(1, 1), p11);
 }
 
+// In float, the variance after a measurement survives a prior many times wider than the
+// measurement: a 20 deg/s bias prior in counts (940 per rad/s) and rests at the 1e-5 rad/s floor,
+// a ratio of about 4e8, where P - P h h' P / S rounds to 0. The float filter follows the double
+// one to a part in a thousand (a relative error about eps / sqrt(r / p)); the first rest's
+// variance is r's to that accuracy.
+TEST(BiasFilter, FloatKeepsTheVarianceUnderAWidePrior) {
+  for (const double curvature_sigma : {1.7e-5, 0.0}) {
+    const double k = 940.0;
+    BiasFilter<float> f;
+    BiasFilter<double> g;
+    f.start(Vector3<float>::Zero(), static_cast<float>(0.35 * k), Vector3<float>::Zero(),
+            static_cast<float>(5.2e-4 * k), Vector3<float>::Zero(),
+            static_cast<float>(curvature_sigma * k), 25.0f);
+    g.start(Vector3<double>::Zero(), 0.35 * k, Vector3<double>::Zero(), 5.2e-4 * k,
+            Vector3<double>::Zero(), curvature_sigma * k, 25.0);
+    sim::Random rng(8);
+    const double floor_r = (1.7e-5 * k) * (1.7e-5 * k);
+    for (int n = 0; n < 60; ++n) {
+      const double t = n == 0 ? 25.0 : 15.0 + 30.0 * rng.uniform();
+      const double r = n < 3 ? floor_r : floor_r + 0.16 * rng.uniform();
+      const Vector3<double> z = Vector3<double>(3.0, -40.0, 7.5) + rng.normal3() * std::sqrt(r);
+      f.update(z.cast<float>(), static_cast<float>(r), static_cast<float>(t));
+      g.update(z, r, t);
+      if (n == 0) {
+        EXPECT_NEAR(f.p(0, 0), floor_r, 2e-3 * floor_r);
+      }
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_NEAR(f.p(i, i), g.p(i, i), 2e-3 * g.p(i, i)) << "rest " << n << " entry " << i;
+        EXPECT_NEAR(f.c(i), g.c(i), 1e-3 * std::sqrt(g.p(0, 0)) + 1e-6 * std::fabs(g.c(i)))
+            << "rest " << n << " axis " << i;
+      }
+    }
+    EXPECT_TRUE(f.finite());
+  }
+}
+
 // ---- The calibrator on bad input ----
 
 FieldSettings<float> settings_for(const sim::DeviceSheet& sheet) {
@@ -865,11 +901,21 @@ TEST(MagField, AStoredCalibrationComesBackUnchanged) {
     const Vector3<float> m = (Vector3<float>::Random() * 400.0f).eval();
     EXPECT_LT((mag_apply(out, m) - mag_apply(stored, m)).norm(), 1e-3f);
   }
-  // A stored calibration that is not one (a singular soft iron) is refused: the nominal prior.
-  stored.soft_iron.setZero();
-  FieldCalibrator<float> g;
-  EXPECT_EQ(g.start(s, nullptr, nullptr, &stored), Status::kNonFiniteInput);
-  EXPECT_FALSE(g.mag_calibration(out));
+  // A stored calibration that is not one (a singular soft iron; one nearly so, though a record
+  // takes it: a positive determinant; one skewed beyond any magnetometer) is refused: the nominal
+  // prior.
+  const Matrix3<float> good = stored.soft_iron;
+  Matrix3<float> skewed = Matrix3<float>::Identity() * 0.15f;
+  skewed(0, 2) = 0.15f;
+  for (const Matrix3<float>& bad :
+       {Matrix3<float>(Matrix3<float>::Zero()),
+        Matrix3<float>(Vector3<float>(0.15f, 0.15f, 1e-6f).asDiagonal()), skewed}) {
+    stored.soft_iron = bad;
+    FieldCalibrator<float> g;
+    EXPECT_EQ(g.start(s, nullptr, nullptr, &stored), Status::kNonFiniteInput) << bad;
+    EXPECT_FALSE(g.mag_calibration(out));
+  }
+  stored.soft_iron = good;
 }
 
 // The handheld life from a stored magnetometer calibration: the right one is kept within its

@@ -9,7 +9,7 @@
 //   predict over dt:   P_cc += w dt                             (w: the walk's density squared)
 //   measure z at T:    nu = z - H x,  S = H P H' + r             (r: the measurement's variance)
 //                      chi2 = |nu|^2 / S                          (three axes: chi-square(3))
-//                      x += P H' nu / S,  P -= P H' H P / S
+//                      x += P H' nu / S,  P -= P H' H P / S     (in square-root form)
 //
 // The slope and the curvature are observable only once rests span some temperature: until then
 // they stay at their priors, with their prior variances (a curvature prior of zero variance
@@ -19,6 +19,7 @@
 // Plain data with its arithmetic; no allocation, no exceptions. Header-only.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -137,12 +138,32 @@ struct BiasFilter {
     c += (ph(0) * inv_s) * nu;
     s += (ph(1) * inv_s) * nu;
     q += (ph(2) * inv_s) * nu;
-    p -= (ph * inv_s) * ph.transpose();
+    take_variance(h(d), r);
     if (!std::isnan(t)) {
       if (t < min_c) min_c = t;
       if (t > max_c) max_c = t;
     }
     ++measurements;
+  }
+
+  // P -= P h h' P / (h' P h + r), in square-root form (Potter): with P = F F', phi = F' h,
+  // a = 1 / (phi' phi + r) and g = 1 / (1 + sqrt(a r)), P+ = F (I - g a phi phi')^2 F'. The
+  // direct subtraction loses the posterior variance where the prior's is many times the
+  // measurement's (float keeps 24 bits: a prior 10^7 times r leaves a few bits of the result, and
+  // 10^8 times none); here the factor's smallest singular value along phi, sqrt(a r), is formed
+  // to a relative error of about eps / sqrt(a r). F from P's pivoted LDL^T, which takes a
+  // semidefinite P (a parameter held fixed has a zero row).
+  void take_variance(const Vector3<Scalar>& hd, Scalar r) {
+    const Eigen::LDLT<Matrix3<Scalar>> ldlt(p);
+    Matrix3<Scalar> f = ldlt.matrixL();
+    const Vector3<Scalar> dv = ldlt.vectorD();
+    for (int j = 0; j < 3; ++j) f.col(j) *= dv(j) > Scalar(0) ? std::sqrt(dv(j)) : Scalar(0);
+    f = ldlt.transpositionsP().transpose() * f;
+    const Vector3<Scalar> phi = f.transpose() * hd;
+    const Scalar a = Scalar(1) / (phi.squaredNorm() + r);
+    const Scalar g = Scalar(1) / (Scalar(1) + std::sqrt(a * r));
+    f -= ((g * a) * (f * phi)) * phi.transpose();
+    p = f * f.transpose();
   }
 
   bool finite() const {

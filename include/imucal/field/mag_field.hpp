@@ -30,6 +30,7 @@
 
 #include "imucal/field/accel_field.hpp"
 #include "imucal/models/mag_model.hpp"
+#include "imucal/models/plausibility.hpp"
 #include "imucal/status.hpp"
 #include "imucal/types.hpp"
 
@@ -95,7 +96,7 @@ AccelFieldSettings<Scalar> mag_norm_settings(const MagFieldSettings<Scalar>& m) 
 // bias, with sigmas from the calibration's (the soft iron's entries' sigmas for U's, 0 where it
 // has none: the settings' prior sigma then). frame: R = S U^-1, the rotation the published soft
 // iron is turned back by. False (nothing written) for a calibration not usable: not succeeded,
-// not finite, S singular.
+// not finite, S singular or nearly so.
 template <typename Scalar>
 bool mag_prior(const MagCalibration<Scalar>& mag, AccelCalibration<Scalar>& prior,
                Matrix3<Scalar>& frame) {
@@ -108,6 +109,10 @@ bool mag_prior(const MagCalibration<Scalar>& mag, AccelCalibration<Scalar>& prio
   const Matrix3<Scalar> u = llt.matrixU();
   if (!all_finite(u) || !(u(0, 0) > Scalar(0)) || !(u(1, 1) > Scalar(0)) || !(u(2, 2) > Scalar(0)))
     return false;
+  // Nor one no magnetometer has, though S is not singular: an axis read at under a tenth of
+  // another's scale (S nearly singular: every rest would then be off the field, refused for
+  // good), or a misalignment beyond the models' bound.
+  if (!(u.diagonal().minCoeff() >= Scalar(0.1) * u.diagonal().maxCoeff())) return false;
   AccelCalibration<Scalar> p;
   p.params(kScaleX) = u(0, 0);
   p.params(kScaleY) = u(1, 1);
@@ -115,6 +120,8 @@ bool mag_prior(const MagCalibration<Scalar>& mag, AccelCalibration<Scalar>& prio
   p.params(kAlphaYz) = -u(0, 1) / u(1, 1);
   p.params(kAlphaZy) = u(0, 2) / u(2, 2);
   p.params(kAlphaZx) = -u(1, 2) / u(2, 2);
+  for (int i = kAlphaYz; i <= kAlphaZx; ++i)
+    if (!bounds::within(p.params(i), bounds::kMaxMisalignment)) return false;
   p.params.template segment<3>(kBiasX) = mag.hard_iron;
   const MagSymVector<Scalar>& s = mag.soft_iron_sigma;
   p.sigma(kScaleX) = s(kS00);
