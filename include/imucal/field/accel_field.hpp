@@ -647,16 +647,24 @@ class AccelField {
     return static_cast<std::uint8_t>(b);
   }
 
-  // Each cell's weight halves every half_life_days, an hour at a time.
+  // Each cell's weight halves every half_life_days, by whole hours: after h hours it is
+  // multiplied by forget_hour_^h, the power formed by squaring (a year without a rest is 14
+  // squarings, not 8,760 passes over the cells).
   void age(std::uint64_t time_us) {
+    constexpr std::uint64_t kHourUs = 3600000000u;
     if (aged_us_ == 0 || time_us < aged_us_) {
       aged_us_ = time_us;
       return;
     }
-    while (time_us - aged_us_ >= 3600000000u) {
-      aged_us_ += 3600000000u;
-      for (std::size_t i = 0; i < n_cells_; ++i) cells_[i].w *= forget_hour_;
+    std::uint64_t hours = (time_us - aged_us_) / kHourUs;
+    if (hours == 0) return;
+    aged_us_ += hours * kHourUs;
+    Scalar factor = Scalar(1), power = forget_hour_;
+    for (; hours != 0; hours >>= 1) {
+      if ((hours & 1u) != 0) factor *= power;
+      power *= power;
     }
+    for (std::size_t i = 0; i < n_cells_; ++i) cells_[i].w *= factor;
   }
 
   void take(const Pose& p) {
