@@ -657,6 +657,123 @@ TEST(RestMonitor, AResetWithinTheStreamKeepsItsTimeOrder) {
   EXPECT_EQ(m.add(s), Status::kOk);
 }
 
+// n samples of a still stream at 100 Hz after t (noise as GapEndsTheRest's) into m: kOk, or the
+// first other status.
+Status still_samples(RestMonitor<float>& m, sim::Random& rng, std::uint32_t& t, int n,
+                     ImuSample<float>& s) {
+  Status last = Status::kOk;
+  for (int k = 0; k < n; ++k) {
+    t += 10000u;
+    s.t_us = t;
+    s.acc = Vector3<float>(0.1f, -0.2f, 9.8f) + to_float(0.01 * rng.normal3());
+    s.gyro = to_float(0.002 * rng.normal3());
+    last = m.add(s);
+    if (last != Status::kOk) return last;
+  }
+  return last;
+}
+
+RestMonitorSettings<float> gap_test_settings() {
+  RestMonitorSettings<float> set;
+  set.accel_noise = 3e-4f;
+  set.gyro_noise = 4e-6f;
+  set.max_rest_seconds = 60.0f;
+  return set;
+}
+
+// A stall of 600 ms (a FIFO overrun, a bus held) after which one sensor repeats its last reading
+// (a quantised gyro, a driver's cached registers): the step is a gap, not time the sensor was
+// seen frozen, and the rest before it is handed out.
+TEST(RestMonitor, ARepeatedReadingAcrossAStallIsAGapNotAFrozenSensor) {
+  RestMonitor<float> m(gap_test_settings());
+  sim::Random rng(1301);
+  std::uint32_t t = 1000u;
+  ImuSample<float> s;
+  ASSERT_EQ(still_samples(m, rng, t, 1000, s), Status::kOk);
+  t += 600000u;
+  s.t_us = t;
+  s.acc(0) += 0.01f;  // the accelerometer moves on, the gyro repeats itself
+  EXPECT_EQ(m.add(s), Status::kTimestampGap);
+  EXPECT_EQ(m.stream_counts().frozen, 0u);
+  EXPECT_EQ(m.stream_counts().gaps, 1u);
+  RestSummary<float> r;
+  ASSERT_TRUE(m.take(r));
+  EXPECT_GT(r.duration_s, 9.0f);
+  // A sensor that stays frozen is refused across a stall as before it.
+  Status st = Status::kOk;
+  for (int k = 0; k < 60; ++k) {
+    t += 10000u;
+    s.t_us = t;
+    st = m.add(s);
+  }
+  ASSERT_EQ(st, Status::kSensorFrozen);
+  t += 600000u;
+  s.t_us = t;
+  EXPECT_EQ(m.add(s), Status::kSensorFrozen);
+}
+
+// With the sensor's rate given (nominal_rate_hz), a step over gap_factor periods is a gap: 400 ms
+// at 100 Hz. Without it only max_step_seconds (0.5 s) is.
+TEST(RestMonitor, AStepOverGapFactorNominalPeriodsIsAGap) {
+  for (const float rate : {100.0f, 0.0f}) {
+    RestMonitorSettings<float> set = gap_test_settings();
+    set.nominal_rate_hz = rate;
+    RestMonitor<float> m(set);
+    sim::Random rng(1302);
+    std::uint32_t t = 1000u;
+    ImuSample<float> s;
+    ASSERT_EQ(still_samples(m, rng, t, 50, s), Status::kOk);
+    t += 390000u;
+    EXPECT_EQ(still_samples(m, rng, t, 1, s), rate > 0.0f ? Status::kTimestampGap : Status::kOk)
+        << rate;
+    t += 30000u;  // 40 ms: under 5 periods is no gap
+    EXPECT_EQ(still_samples(m, rng, t, 1, s), Status::kOk) << rate;
+    EXPECT_EQ(m.stream_counts().gaps, rate > 0.0f ? 1u : 0u) << rate;
+  }
+}
+
+// The sample that makes a clock reset is refused as a glitch: the stream still starts again
+// there, on the new clock, and the next sample is taken (not refused as behind the old clock).
+TEST(RestMonitor, AGlitchWhereTheStreamStartsAgainKeepsTheRestart) {
+  RestMonitorSettings<float> set = gap_test_settings();
+  set.glitch_sigma = 10.0f;
+  RestMonitor<float> m(set);
+  sim::Random rng(1304);
+  std::uint32_t t = 1000000000u;
+  ImuSample<float> s;
+  ASSERT_EQ(still_samples(m, rng, t, 300, s), Status::kOk);
+  t = 1000u;  // the clock starts again: the third sample behind it is the reset
+  EXPECT_EQ(still_samples(m, rng, t, 1, s), Status::kTimeBackwards);
+  EXPECT_EQ(still_samples(m, rng, t, 1, s), Status::kTimeBackwards);
+  t += 10000u;
+  s.t_us = t;
+  s.acc(0) += 5.0f;  // and a reading no hand makes
+  EXPECT_EQ(m.add(s), Status::kGlitch);
+  EXPECT_EQ(m.stream_counts().clock_resets, 1u);
+  EXPECT_EQ(still_samples(m, rng, t, 200, s), Status::kOk);
+  EXPECT_EQ(m.stream_counts().clock_resets, 1u);
+  EXPECT_EQ(m.stream_counts().time_backwards, 2u);
+}
+
+// New settings within the stream: the rests found and not yet taken are counted as dropped.
+TEST(RestMonitor, ANewSettingsRestsNotTakenAreCountedDropped) {
+  const RestMonitorSettings<float> set = gap_test_settings();
+  RestMonitor<float> m(set);
+  sim::Random rng(1303);
+  std::uint32_t t = 1000u;
+  ImuSample<float> s;
+  for (int rest = 0; rest < 2; ++rest) {
+    ASSERT_EQ(still_samples(m, rng, t, 800, s), Status::kOk);
+    t += 2000000u;
+    ASSERT_EQ(still_samples(m, rng, t, 1, s), Status::kTimestampGap);
+  }
+  ASSERT_EQ(m.dropped(), 0u);
+  ASSERT_EQ(m.reset_in_stream(set), Status::kOk);
+  EXPECT_EQ(m.dropped(), 2u);
+  RestSummary<float> r;
+  EXPECT_FALSE(m.take(r));
+}
+
 TEST(RestMonitor, GapEndsTheRestAndSettingsAreChecked) {
   RestMonitorSettings<float> set;
   RestMonitor<float> m(set);  // thresholds not set

@@ -277,7 +277,7 @@ class Calibrator {
       // A reading far outside the window's noise: refused as after the initial rest (the
       // previous sample stays the reference).
       if (!c.acc_saturated && init_.glitch(s.acc, settings_.glitch_sigma))
-        return checks_.refuse_glitch();
+        return checks_.refuse_glitch(c, s.t_us);
       checks_.accept(s);
       // A saturated accelerometer cannot be at rest: the initial rest starts again.
       if (c.acc_saturated) {
@@ -289,7 +289,7 @@ class Calibrator {
     if (!segmenter_.add(s, c, *this)) {
       // Not taken: a reading this far off is no acceleration a hand makes. The previous
       // sample stays the reference, so the interval spans the refused one.
-      return checks_.refuse_glitch();
+      return checks_.refuse_glitch(c, s.t_us);
     }
     checks_.accept(s);
     if (pose_store_full_reported_ && result == Status::kOk) {
@@ -309,7 +309,7 @@ class Calibrator {
     if (phase_ == Phase::kInitialRest) {
       const ImuSample<Scalar> s = to_sample(f, c.temperature);
       if (!c.acc_saturated && init_.glitch(s.acc, settings_.glitch_sigma))
-        return checks_.refuse_glitch();
+        return checks_.refuse_glitch(c, f.t_us);
       checks_.accept(f);
       if (c.acc_saturated) {
         restart_initial_rest();
@@ -317,7 +317,7 @@ class Calibrator {
       }
       return initial_rest_sample(s, c.dt(), result);
     }
-    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch();
+    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch(c, f.t_us);
     checks_.accept(f);
     if (pose_store_full_reported_ && result == Status::kOk) {
       pose_store_full_reported_ = false;
@@ -349,11 +349,8 @@ class Calibrator {
 
   // The largest step that is not a gap, in microseconds.
   void update_gap_limit() {
-    Scalar limit = settings_.max_step_seconds;
-    if (phase_ != Phase::kInitialRest && period_ > Scalar(0) &&
-        settings_.gap_factor * period_ < limit)
-      limit = settings_.gap_factor * period_;
-    checks_.set_gap_limit(detail::seconds_to_us(limit));
+    const Scalar period = phase_ != Phase::kInitialRest ? period_ : Scalar(0);
+    checks_.set_gap_limit(detail::seconds_to_us(settings_.gap_seconds(period)));
   }
 
   // ---- The front end's sink (checks.hpp) -----------------------------------------------------

@@ -204,9 +204,12 @@ template <typename Scalar>
 struct StreamSettings {
   // false: the stream carries no gyro (its readings are ignored).
   bool has_gyro = true;
-  Scalar gap_factor = Scalar(5);          // a step above this x the mean period is a gap
-  Scalar max_step_seconds = Scalar(0.5);  // a gap whatever the period
-  Scalar frozen_seconds = Scalar(0.5);    // identical readings this long: sensor frozen
+  // A step above gap_factor x the period is a gap (the calibrator's period is the mean it
+  // measured at its initial rest, the rest monitor's the nominal one, 1 / nominal_rate_hz); a step
+  // above max_step_seconds is one whatever the period.
+  Scalar gap_factor = Scalar(5);
+  Scalar max_step_seconds = Scalar(0.5);
+  Scalar frozen_seconds = Scalar(0.5);  // identical readings this long: sensor frozen
   // Temperature readings outside this range (deg C; compared in 1/4096 deg C, limits beyond
   // +-4096 deg C taken as +-4096), or not finite (NaN means "no sensor"), are ignored and counted;
   // the sample is taken.
@@ -223,6 +226,12 @@ struct StreamSettings {
   // This many consecutive samples behind the clock, in order among themselves: the clock was
   // reset (the stream restarts as after a gap) rather than a few bad timestamps.
   int clock_reset_samples = 3;
+
+  // The largest step that is not a gap, in seconds, for a stream of this period (0: unknown).
+  Scalar gap_seconds(Scalar period) const {
+    return period > Scalar(0) && gap_factor * period < max_step_seconds ? gap_factor * period
+                                                                        : max_step_seconds;
+  }
 
   bool valid() const {
     return gap_factor > Scalar(1) && max_step_seconds > Scalar(0) &&
@@ -408,12 +417,15 @@ class StreamChecks {
       }
     }
     clock_.in_order();
-    // Frozen: either sensor's reading the same as its previous one for frozen_seconds.
+    // Frozen: either sensor's reading the same as its previous one for frozen_seconds. A gap's
+    // step is not time the sensor was seen repeating itself (one repeat across a stall is a
+    // quantised reading, and the gap is what the sample says); a spell already frozen goes on.
     if (have_prev_ && !restart_ && repeats(s)) {
       // Saturating: a spell longer than the clock's 71.6 minutes stays frozen.
       const std::uint32_t room = 0xFFFFFFFFu - frozen_us_;
-      frozen_us_ +=
-          static_cast<std::uint32_t>(step) < room ? static_cast<std::uint32_t>(step) : room;
+      const std::uint32_t seen =
+          static_cast<std::uint32_t>(step) <= gap_us_ ? static_cast<std::uint32_t>(step) : 0u;
+      frozen_us_ += seen < room ? seen : room;
       t_prev_ = s.t_us;
       if (frozen_us_ >= frozen_limit_us_) {
         if (!frozen_) {
@@ -479,8 +491,14 @@ class StreamChecks {
     ++refused_;
     return s;
   }
-  // The consumer's own refusals that the counts name.
-  Status refuse_glitch() {
+  // The consumer's own refusals that the counts name. A glitch refused where the stream started
+  // again (c.step_us 0: after a gap, a clock reset, a saturated gyro) leaves it to start again at
+  // the next sample, which is ordered against this one's time t_us (a reset clock's).
+  Status refuse_glitch(const CheckedSample<Scalar>& c, std::uint32_t t_us) {
+    if (c.step_us == 0) {
+      restart_ = true;
+      t_prev_ = t_us;
+    }
     ++counts_.glitches;
     last_event_ = Status::kGlitch;
     return refuse(Status::kGlitch);

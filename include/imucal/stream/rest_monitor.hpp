@@ -106,7 +106,8 @@ class RestMonitor {
   Status reset(const RestMonitorSettings<Scalar>& settings) { return reset(settings, false); }
   // As reset(), within one stream (new settings mid-stream): the next sample is still ordered
   // against the latest one, so one behind it is refused (kTimeBackwards) or makes a clock reset.
-  // The stream's counts (stream_counts(), samples_refused(), dropped()) go on.
+  // The stream's counts (stream_counts(), samples_refused(), dropped()) go on; rests found and
+  // not yet taken are counted in dropped().
   Status reset_in_stream(const RestMonitorSettings<Scalar>& settings) {
     return reset(settings, true);
   }
@@ -119,12 +120,18 @@ class RestMonitor {
       checks_.reset_in_stream(settings);
     else
       checks_.reset(settings);
-    checks_.set_gap_limit(valid_ ? detail::seconds_to_us(settings.max_step_seconds) : 0u);
+    const Scalar period =
+        settings.nominal_rate_hz > Scalar(0) ? Scalar(1) / settings.nominal_rate_hz : Scalar(0);
+    checks_.set_gap_limit(valid_ ? detail::seconds_to_us(settings.gap_seconds(period)) : 0u);
     segmenter_.reset(settings);
     started_ = false;
     after_motion_ = true;
+    // Within the stream, rests found and not yet taken are lost to the new settings: dropped.
+    if (in_stream)
+      dropped_ += static_cast<std::uint32_t>(queue_.size());
+    else
+      dropped_ = 0;
     queue_.clear();
-    if (!in_stream) dropped_ = 0;
     emitted_ = 0;
     if constexpr (MoveSegments > 0) {
       can_keep_moves_ = valid_ && std::isfinite(settings.move_max_angle) &&
@@ -167,7 +174,7 @@ class RestMonitor {
     const Status result = checks_.check(s, *this, c);
     if (result != Status::kOk && !sample_taken(result)) return result;
     if (!started_) start(s.acc);
-    if (!segmenter_.add(s, c, *this)) return checks_.refuse_glitch();
+    if (!segmenter_.add(s, c, *this)) return checks_.refuse_glitch(c, s.t_us);
     checks_.accept(s);
     return result;
   }
@@ -185,7 +192,7 @@ class RestMonitor {
     if (!started_)
       start(Vector3<Scalar>(static_cast<Scalar>(f.acc[0]), static_cast<Scalar>(f.acc[1]),
                             static_cast<Scalar>(f.acc[2])));
-    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch();
+    if (!segmenter_.add(f, c, *this)) return checks_.refuse_glitch(c, f.t_us);
     checks_.accept(f);
     return result;
   }
