@@ -904,7 +904,6 @@ TEST(MagField, AStoredCalibrationComesBackUnchanged) {
   // A stored calibration that is not one (a singular soft iron; one nearly so, though a record
   // takes it: a positive determinant; one skewed beyond any magnetometer) is refused: the nominal
   // prior.
-  const Matrix3<float> good = stored.soft_iron;
   Matrix3<float> skewed = Matrix3<float>::Identity() * 0.15f;
   skewed(0, 2) = 0.15f;
   for (const Matrix3<float>& bad :
@@ -915,7 +914,6 @@ TEST(MagField, AStoredCalibrationComesBackUnchanged) {
     EXPECT_EQ(g.start(s, nullptr, nullptr, &stored), Status::kNonFiniteInput) << bad;
     EXPECT_FALSE(g.mag_calibration(out));
   }
-  stored.soft_iron = good;
 }
 
 // The handheld life from a stored magnetometer calibration: the right one is kept within its
